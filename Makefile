@@ -1,0 +1,99 @@
+# parlight — one build for the library, the CLI and the tests.
+#
+#   make              build build/parlight (and build/libparlight.a)
+#   make demo         install what is missing, build, run the shipped model on the sample frames
+#   make test         install what is missing, build, run the whole suite (tests/run.sh)
+#   make clean        remove build/
+#   make BOARD=name   build for boards/name.mk (default: host)
+#
+# Everything is built out of tree under $(BUILD). Sources are found by directory, so a new
+# file in model/, kernels/, quant/, light/ or port/ joins the library without editing this file;
+# tests/test_*.c each become one test program.
+
+BOARD ?= host
+ifeq ($(wildcard boards/$(BOARD).mk),)
+$(error unknown BOARD '$(BOARD)': no boards/$(BOARD).mk (have: $(basename $(notdir $(wildcard boards/*.mk)))))
+endif
+include boards/$(BOARD).mk
+
+ifeq ($(BOARD),host)
+BUILD ?= build
+else
+BUILD ?= build/$(BOARD)
+endif
+
+PKG_CONFIG ?= pkg-config
+OPENCV_CFLAGS := $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null)
+OPENCV_LIBS   := -lopencv_videoio -lopencv_imgcodecs -lopencv_imgproc -lopencv_core
+EXR_CFLAGS    := $(shell $(PKG_CONFIG) --cflags OpenEXR 2>/dev/null)
+EXR_LIBS      := $(shell $(PKG_CONFIG) --libs OpenEXR 2>/dev/null)
+
+WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wmissing-prototypes \
+            -Wformat=2 -Wundef
+OPT      ?= -O2 -g
+CPPFLAGS += -Iinclude -I. -D_GNU_SOURCE
+CFLAGS   += -std=c11 $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread
+CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
+            $(OPENCV_CFLAGS) $(EXR_CFLAGS)
+LDLIBS   += $(OPENCV_LIBS) $(EXR_LIBS) -lstdc++ -lm -pthread
+
+LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
+LIB_CXX := $(sort $(wildcard port/*.cpp light/*.cpp))
+APP_C   := $(sort $(wildcard app/*.c))
+TEST_C  := $(sort $(wildcard tests/test_*.c))
+
+LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
+APP_OBJ  := $(APP_C:%.c=$(BUILD)/obj/%.o)
+TEST_BIN := $(TEST_C:tests/%.c=$(BUILD)/tests/%)
+LIB      := $(BUILD)/libparlight.a
+CLI      := $(BUILD)/parlight
+
+DEMO_MODEL ?= models/parlight-n3.plm
+
+.PHONY: all deps demo test tests clean format-check
+all: $(CLI) tests
+
+tests: $(TEST_BIN)
+
+deps:
+	@tools/install-deps.sh
+
+$(BUILD)/obj/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/obj/%.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MMD -MP -c $< -o $@
+
+$(LIB): $(LIB_OBJ)
+	@mkdir -p $(dir $@)
+	rm -f $@
+	$(AR) rcs $@ $^
+
+$(CLI): $(APP_OBJ) $(LIB)
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $(APP_OBJ) $(LIB) $(LDLIBS)
+
+$(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
+
+# The demo runs whatever model is shipped; until a trained one exists it exports one from seeded
+# weights into build/ and says so (tools/demo.sh).
+demo:
+	@tools/install-deps.sh
+	@$(MAKE) --no-print-directory all
+	@BUILD=$(BUILD) tools/demo.sh
+
+test:
+	@tools/install-deps.sh
+	@$(MAKE) --no-print-directory all
+	@BUILD=$(BUILD) tests/run.sh
+
+format-check:
+	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror
+
+clean:
+	rm -rf build
+
+-include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d)

@@ -1,0 +1,16 @@
+/* The parlight subcommands. Each lives in app/cmd_<name>.c as `int cmd_<name>(int argc, char **argv)`
+ * (argv[0] is the command name), prints its own --help, and returns the process exit code:
+ * 0 success, 1 failure (one line on stderr naming the problem), 2 bad usage. */
+#ifndef PL_APP_COMMANDS_H
+#define PL_APP_COMMANDS_H
+
+/* X(name, summary) — one line per command, in the order `parlight --help` lists them. */
+#define PL_COMMANDS(X)                                                                             \
+    X(estimate, "estimate lights from image files, videos or directories (JSON lines)")            \
+    X(info, "print a model's architecture, N, input size, parameters and file size")
+
+#define PL_DECLARE(name, summary) int cmd_##name(int argc, char **argv);
+PL_COMMANDS(PL_DECLARE)
+#undef PL_DECLARE
+
+#endif

@@ -1,0 +1,116 @@
+/* parlight — indoor lighting estimation from one camera frame (Gardner et al., ICCV 2019).
+ *
+ * Public C API. Typical use:
+ *
+ *     pl_model *m;
+ *     if (pl_model_load("models/parlight-n3.plm", &m) < 0) { puts(pl_last_error()); ... }
+ *     pl_lighting L;
+ *     if (pl_estimate_rgb8(m, rgb, width, height, width * 3, &L) < 0) { ... }
+ *     ... L.lights[0].dir, L.ambient ...
+ *     pl_model_free(m);
+ *
+ * Errors: every function that can fail returns a negative pl_status and leaves a message naming
+ * the problem (file, offset, field, expected vs found) in pl_last_error(), which is per thread.
+ * The library never prints and never exits.
+ *
+ * Coordinates (camera frame, right-handed, OpenGL/WebXR): x right, y up, the camera looks along
+ * -z. A light's direction points from the camera toward the light. Distances in metres, angular
+ * sizes as solid angles in steradians, colours linear RGB on the training panoramas' scale.
+ */
+#ifndef PARLIGHT_H
+#define PARLIGHT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum pl_status {
+    PL_OK = 0,
+    PL_E_ARG = -1,         /* a caller's argument is invalid (NULL, out of range, bad flag) */
+    PL_E_IO = -2,          /* a file or device cannot be opened, read or written */
+    PL_E_FORMAT = -3,      /* a file's contents are malformed (model, image, JSON, HDR) */
+    PL_E_MODEL = -4,       /* a well-formed model that does not match the architecture */
+    PL_E_NOMEM = -5,       /* an allocation failed or a size overflowed */
+    PL_E_UNSUPPORTED = -6, /* valid but not handled (pixel format, dtype, ISA) */
+    PL_E_EOF = -7,         /* a source has no more frames */
+    PL_E_DEVICE = -8,      /* a camera or socket failed */
+    PL_E_INTERNAL = -9,    /* a bug: please report it */
+} pl_status;
+
+/* Short name of a status ("PL_E_FORMAT"). */
+const char *pl_status_name(int status);
+/* Message of the last failure on this thread ("" when none). Valid until the next failure. */
+const char *pl_last_error(void);
+
+/* Most lights a model or a lights file may carry. */
+#define PL_MAX_LIGHTS 16
+
+/* One parametric light (the paper's p_i = {l_i, d_i, s_i, c_i}). */
+typedef struct pl_light {
+    float dir[3];          /* unit vector, camera frame, from the camera toward the light */
+    float distance_m;      /* distance from the camera, metres, > 0 */
+    float solid_angle_sr;  /* s_i: angular size as a solid angle, steradians, > 0 */
+    float rgb[3];          /* c_i: peak radiance of the lobe, linear RGB, >= 0 */
+} pl_light;
+
+/* N lights plus the ambient term: what the network predicts and AR apps consume.
+ * The environment map it stands for is eq. (4): sum_i c_i exp((l_i.u - 1) / (s_i / 4pi)) + a. */
+typedef struct pl_lighting {
+    int n_lights;                   /* 0..PL_MAX_LIGHTS */
+    pl_light lights[PL_MAX_LIGHTS];
+    float ambient[3];               /* a: linear RGB, >= 0 */
+} pl_lighting;
+
+/* ---- model ------------------------------------------------------------------------------- */
+
+typedef struct pl_model pl_model;
+
+/* Loads and validates a .plm file (docs/FORMAT.md), maps it, and plans the one arena that every
+ * later pl_estimate_* call runs in. Nothing is allocated per frame afterwards. */
+int pl_model_load(const char *path, pl_model **out);
+void pl_model_free(pl_model *model);
+
+typedef struct pl_model_info {
+    const char *arch;        /* "densenet121-parametric" */
+    const char *precision;   /* "fp32" or "int8" */
+    const char *provenance;  /* how the weights were made (free text from the file) */
+    int n_lights;            /* N: 2, 3 or 5 */
+    int input_h, input_w;    /* network input in pixels (192 x 256 by default) */
+    int64_t n_params;        /* parameters in the file's tensors */
+    int64_t file_size;       /* bytes */
+    size_t arena_bytes;      /* the executor's planned working memory */
+} pl_model_info;
+
+/* Fills *info; the strings belong to the model. */
+int pl_model_get_info(const pl_model *model, pl_model_info *info);
+
+/* Worker threads for the next estimates (1 = the calling thread only). Results do not depend
+ * on the count. */
+int pl_model_set_threads(pl_model *model, int n_threads);
+
+/* ---- estimation -------------------------------------------------------------------------- */
+
+/* Time spent in the last estimate, milliseconds. */
+typedef struct pl_timing {
+    double preprocess_ms;  /* crop, resize, normalise */
+    double infer_ms;       /* encoder + heads */
+} pl_timing;
+
+/* Estimates lighting from one RGB frame, 8 bits per channel, rows `stride` bytes apart, any
+ * size of at least 8 x 8. The frame is centre-cropped to 4:3 (the model's aspect) and resized
+ * to the model input with an area filter. Not reentrant for one model: use one model per thread
+ * that calls it. */
+int pl_estimate_rgb8(pl_model *model, const uint8_t *rgb, int width, int height, size_t stride,
+                     pl_lighting *out, pl_timing *timing);
+
+/* The latent z of the last estimate (3072 floats for the default model: 1024 channels x 3
+ * bands, channel-major), for tests and tools. */
+int pl_model_last_latent(const pl_model *model, const float **z, int *n);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,65 @@
+#include "port/util.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+static _Thread_local char last_error[512];
+
+int pl_error(int status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(last_error, sizeof last_error, fmt, ap);
+    va_end(ap);
+    return status;
+}
+
+int pl_error_prefix(int status, const char *fmt, ...)
+{
+    char prefix[256], old[sizeof last_error];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    va_end(ap);
+    memcpy(old, last_error, sizeof old);
+    snprintf(last_error, sizeof last_error, "%s: %s", prefix, old);
+    return status;
+}
+
+const char *pl_last_error(void)
+{
+    return last_error;
+}
+
+const char *pl_status_name(int status)
+{
+    switch (status) {
+    case PL_OK: return "PL_OK";
+    case PL_E_ARG: return "PL_E_ARG";
+    case PL_E_IO: return "PL_E_IO";
+    case PL_E_FORMAT: return "PL_E_FORMAT";
+    case PL_E_MODEL: return "PL_E_MODEL";
+    case PL_E_NOMEM: return "PL_E_NOMEM";
+    case PL_E_UNSUPPORTED: return "PL_E_UNSUPPORTED";
+    case PL_E_EOF: return "PL_E_EOF";
+    case PL_E_DEVICE: return "PL_E_DEVICE";
+    case PL_E_INTERNAL: return "PL_E_INTERNAL";
+    default: return "PL_E_UNKNOWN";
+    }
+}
+
+int64_t pl_now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
+
+int64_t pl_wall_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
