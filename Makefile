@@ -8,7 +8,7 @@
 #
 # Everything is built out of tree under $(BUILD). Sources are found by directory, so a new
 # file in model/, kernels/, quant/, light/ or port/ joins the library without editing this file;
-# tests/test_*.c each become one test program.
+# tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
 
 BOARD ?= host
 ifeq ($(wildcard boards/$(BOARD).mk),)
@@ -40,7 +40,7 @@ LDLIBS   += $(OPENCV_LIBS) $(EXR_LIBS) -lstdc++ -lm -pthread
 LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
 LIB_CXX := $(sort $(wildcard port/*.cpp light/*.cpp))
 APP_C   := $(sort $(wildcard app/*.c))
-TEST_C  := $(sort $(wildcard tests/test_*.c))
+TEST_C  := $(sort $(wildcard tests/*.c))
 
 LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 APP_OBJ  := $(APP_C:%.c=$(BUILD)/obj/%.o)
