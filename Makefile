@@ -48,7 +48,12 @@ TEST_BIN := $(TEST_C:tests/%.c=$(BUILD)/tests/%)
 LIB      := $(BUILD)/libparlight.a
 CLI      := $(BUILD)/parlight
 
-DEMO_MODEL ?= models/parlight-n3.plm
+# Models exported from seeded random weights (tools/export.py), for the tests and, until a
+# trained model ships, the demo. Board-independent, so they live in build/models/.
+SEEDED := build/models/seeded-n3.plm
+build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
+	@mkdir -p $(dir $@)
+	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force
 
 .PHONY: all deps demo test tests clean format-check
 all: $(CLI) tests
@@ -57,6 +62,9 @@ tests: $(TEST_BIN)
 
 deps:
 	@tools/install-deps.sh
+
+# Kernels are where the time goes: let the compiler vectorise their inner loops fully.
+$(BUILD)/obj/kernels/%.o: OPT := -O3 -g
 
 $(BUILD)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -83,11 +91,12 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(LIB)
 demo:
 	@tools/install-deps.sh
 	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory $(SEEDED)
 	@BUILD=$(BUILD) tools/demo.sh
 
 test:
 	@tools/install-deps.sh
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory all $(SEEDED)
 	@BUILD=$(BUILD) tests/run.sh
 
 format-check:

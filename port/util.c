@@ -18,13 +18,19 @@ int pl_error(int status, const char *fmt, ...)
 
 int pl_error_prefix(int status, const char *fmt, ...)
 {
-    char prefix[256], old[sizeof last_error];
+    char msg[sizeof last_error];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    int n = vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    memcpy(old, last_error, sizeof old);
-    snprintf(last_error, sizeof last_error, "%s: %s", prefix, old);
+    size_t len = n < 0 ? 0 : (size_t)n < sizeof msg - 3 ? (size_t)n : sizeof msg - 3;
+    memcpy(msg + len, ": ", 2);
+    len += 2;
+    size_t rest = strnlen(last_error, sizeof last_error - 1);
+    if (rest > sizeof msg - 1 - len) rest = sizeof msg - 1 - len;
+    memcpy(msg + len, last_error, rest);
+    msg[len + rest] = '\0';
+    memcpy(last_error, msg, len + rest + 1);
     return status;
 }
 

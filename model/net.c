@@ -1,0 +1,521 @@
+/* The densenet121-parametric graph (tools/model.py, docs/FORMAT.md) and its fp32 executor.
+ *
+ * pl_model_load validates the file against the architecture (every tensor's name, dtype and
+ * shape; nothing missing, nothing extra), then plans one arena:
+ *
+ *   A  conv0 output, block 2, block 4      (ping)
+ *   B  the input tensor, block 1, block 3  (pong)
+ *   T1 pre-activated copy of a block's channels (BN + ReLU), the largest block
+ *   T2 bottleneck (128 channels at block-1 size) and pooled transition inputs
+ *   small vectors: z, h, head outputs, the distance head's input and hidden layer
+ *
+ * A dense layer reads channels [0, c) of its block buffer and writes its 32 new channels at
+ * offset c in place, so concatenation never copies. Transitions run BN+ReLU, then the 2x2 average
+ * pool, then the 1x1 convolution (pool and conv commute: 4x less work), writing into the next
+ * block's buffer at channel 0. After loading, estimates allocate nothing. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "kernels/ref/nn_ref.h"
+#include "model/plm.h"
+#include "port/image.h"
+#include "port/threads.h"
+#include "port/util.h"
+
+#define GROWTH 32
+#define BOTTLENECK 128
+#define N_BLOCKS 4
+#define MAX_LAYERS 58
+static const int block_layers[N_BLOCKS] = {6, 12, 24, 16};
+static const int block_c0[N_BLOCKS] = {64, 128, 256, 512};
+
+struct dense_layer {
+    int cin;
+    const float *n1_scale, *n1_shift, *c1_w, *c1_b, *c2_w;
+};
+
+struct transition {
+    int cin;
+    const float *scale, *shift, *w;
+};
+
+struct pl_model {
+    pl_plm file;
+    char arch[64], precision[16];
+    int n_lights, in_h, in_w, bands, fc_n, dist_hidden;
+    float mean[3], std[3];
+    int64_t n_params;
+
+    const float *conv0_w, *conv0_b;
+    struct dense_layer layers[MAX_LAYERS];
+    struct transition trans[N_BLOCKS - 1];
+    const float *n5_scale, *n5_shift, *fc_w, *fc_b;
+    const float *dir_w, *dir_b, *size_w, *size_b, *rgb_w, *rgb_b, *amb_w, *amb_b;
+    const float *d1_w, *d1_b, *d2_w, *d2_b;
+
+    float *arena;
+    size_t arena_floats;
+    float *x_in, *buf_a, *buf_b, *t1, *t2, *z, *h, *out_dir, *out_size, *out_rgb, *out_amb,
+        *dist_in, *dist_h, *out_dist;
+    int z_len;
+    int have_latent;
+    pl_pool *pool;
+};
+
+/* ---- loading ----------------------------------------------------------------------------- */
+
+static int parse_int(const pl_plm *f, const char *key, int lo, int hi, int *out)
+{
+    const char *v = pl_plm_meta(f, key);
+    if (!v) return pl_error(PL_E_MODEL, "%s: metadata '%s' missing", f->path, key);
+    char *end;
+    errno = 0;
+    long x = strtol(v, &end, 10);
+    if (errno || end == v || *end || x < lo || x > hi)
+        return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected an integer in %d..%d",
+                        f->path, key, v, lo, hi);
+    *out = (int)x;
+    return PL_OK;
+}
+
+static int parse_float3(const pl_plm *f, const char *key, int positive, float out[3])
+{
+    const char *v = pl_plm_meta(f, key);
+    if (!v) return pl_error(PL_E_MODEL, "%s: metadata '%s' missing", f->path, key);
+    const char *s = v;
+    for (int i = 0; i < 3; i++) {
+        char *end;
+        errno = 0;
+        double x = strtod(s, &end);
+        if (errno || end == s || !isfinite(x) || (positive && !(x > 0)) || fabs(x) > 1e6)
+            goto bad;
+        out[i] = (float)x;
+        s = end;
+        if (i < 2) {
+            if (*s != ',') goto bad;
+            s++;
+        }
+    }
+    if (*s == '\0') return PL_OK;
+bad:
+    return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected three %sfloats a,b,c", f->path,
+                    key, v, positive ? "positive " : "");
+}
+
+/* Looks up `name`, checks it is f32 with exactly the given dims, counts it as used. */
+static const float *expect(pl_model *m, int *used, int *rc, const char *name, int ndim, int d0,
+                           int d1, int d2, int d3)
+{
+    if (*rc < 0) return NULL;
+    const pl_tensor *t = pl_plm_tensor(&m->file, name);
+    const int want[4] = {d0, d1, d2, d3};
+    if (!t) {
+        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' missing", m->file.path, name);
+        return NULL;
+    }
+    if (t->dtype != PL_DT_F32) {
+        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' is %s, expected f32", m->file.path, name,
+                       pl_dtype_name(t->dtype));
+        return NULL;
+    }
+    int ok = t->ndim == ndim;
+    for (int i = 0; ok && i < ndim; i++) ok = t->dims[i] == (uint32_t)want[i];
+    if (!ok) {
+        char got[64], exp[64];
+        int n = 0, k = 0;
+        for (int i = 0; i < t->ndim; i++)
+            n += snprintf(got + n, sizeof got - (size_t)n, "%s%u", i ? "," : "", t->dims[i]);
+        for (int i = 0; i < ndim; i++)
+            k += snprintf(exp + k, sizeof exp - (size_t)k, "%s%d", i ? "," : "", want[i]);
+        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' has shape [%s], expected [%s]", m->file.path,
+                       name, got, exp);
+        return NULL;
+    }
+    (*used)++;
+    m->n_params += (int64_t)t->count;
+    return t->data;
+}
+
+static int bind_tensors(pl_model *m)
+{
+    int rc = PL_OK, used = 0, N = m->n_lights;
+    char name[PL_PLM_NAME_MAX];
+    m->conv0_w = expect(m, &used, &rc, "conv0.weight", 4, 64, 3, 7, 7);
+    m->conv0_b = expect(m, &used, &rc, "conv0.bias", 1, 64, 0, 0, 0);
+    int li = 0;
+    for (int b = 0; b < N_BLOCKS; b++) {
+        for (int l = 0; l < block_layers[b]; l++, li++) {
+            struct dense_layer *L = &m->layers[li];
+            L->cin = block_c0[b] + GROWTH * l;
+#define NAME(fmt) (snprintf(name, sizeof name, "denseblock%d.denselayer%d." fmt, b + 1, l + 1), name)
+            L->n1_scale = expect(m, &used, &rc, NAME("norm1.scale"), 1, L->cin, 0, 0, 0);
+            L->n1_shift = expect(m, &used, &rc, NAME("norm1.shift"), 1, L->cin, 0, 0, 0);
+            L->c1_w = expect(m, &used, &rc, NAME("conv1.weight"), 4, BOTTLENECK, L->cin, 1, 1);
+            L->c1_b = expect(m, &used, &rc, NAME("conv1.bias"), 1, BOTTLENECK, 0, 0, 0);
+            L->c2_w = expect(m, &used, &rc, NAME("conv2.weight"), 4, GROWTH, BOTTLENECK, 3, 3);
+#undef NAME
+        }
+        if (b < N_BLOCKS - 1) {
+            struct transition *T = &m->trans[b];
+            T->cin = block_c0[b] + GROWTH * block_layers[b];
+            snprintf(name, sizeof name, "transition%d.norm.scale", b + 1);
+            T->scale = expect(m, &used, &rc, name, 1, T->cin, 0, 0, 0);
+            snprintf(name, sizeof name, "transition%d.norm.shift", b + 1);
+            T->shift = expect(m, &used, &rc, name, 1, T->cin, 0, 0, 0);
+            snprintf(name, sizeof name, "transition%d.conv.weight", b + 1);
+            T->w = expect(m, &used, &rc, name, 4, T->cin / 2, T->cin, 1, 1);
+        }
+    }
+    const int feat = 1024, zl = feat * m->bands, H = m->dist_hidden;
+    m->n5_scale = expect(m, &used, &rc, "norm5.scale", 1, feat, 0, 0, 0);
+    m->n5_shift = expect(m, &used, &rc, "norm5.shift", 1, feat, 0, 0, 0);
+    m->fc_w = expect(m, &used, &rc, "fc.weight", 2, m->fc_n, zl, 0, 0);
+    m->fc_b = expect(m, &used, &rc, "fc.bias", 1, m->fc_n, 0, 0, 0);
+    m->dir_w = expect(m, &used, &rc, "head_dir.weight", 2, 3 * N, m->fc_n, 0, 0);
+    m->dir_b = expect(m, &used, &rc, "head_dir.bias", 1, 3 * N, 0, 0, 0);
+    m->size_w = expect(m, &used, &rc, "head_size.weight", 2, N, m->fc_n, 0, 0);
+    m->size_b = expect(m, &used, &rc, "head_size.bias", 1, N, 0, 0, 0);
+    m->rgb_w = expect(m, &used, &rc, "head_rgb.weight", 2, 3 * N, m->fc_n, 0, 0);
+    m->rgb_b = expect(m, &used, &rc, "head_rgb.bias", 1, 3 * N, 0, 0, 0);
+    m->amb_w = expect(m, &used, &rc, "head_ambient.weight", 2, 3, m->fc_n, 0, 0);
+    m->amb_b = expect(m, &used, &rc, "head_ambient.bias", 1, 3, 0, 0, 0);
+    m->d1_w = expect(m, &used, &rc, "head_dist.fc1.weight", 2, H, zl + 3 * N, 0, 0);
+    m->d1_b = expect(m, &used, &rc, "head_dist.fc1.bias", 1, H, 0, 0, 0);
+    m->d2_w = expect(m, &used, &rc, "head_dist.fc2.weight", 2, N, H, 0, 0);
+    m->d2_b = expect(m, &used, &rc, "head_dist.fc2.bias", 1, N, 0, 0, 0);
+    if (rc < 0) return rc;
+    if ((uint32_t)used != m->file.n_tensors) {
+        for (uint32_t i = 0; i < m->file.n_tensors; i++) {
+            const char *n = m->file.tensors[i].name;
+            /* find the first tensor the architecture does not name */
+            int known = !strcmp(n, "conv0.weight") || !strcmp(n, "conv0.bias") ||
+                        !strncmp(n, "denseblock", 10) || !strncmp(n, "transition", 10) ||
+                        !strncmp(n, "norm5.", 6) || !strncmp(n, "fc.", 3) ||
+                        !strncmp(n, "head_", 5);
+            if (!known)
+                return pl_error(PL_E_MODEL, "%s: unexpected tensor '%s' for %s", m->file.path, n,
+                                m->arch);
+        }
+        return pl_error(PL_E_MODEL, "%s: %u tensors, the architecture uses %d", m->file.path,
+                        m->file.n_tensors, used);
+    }
+    return PL_OK;
+}
+
+static size_t max_sz(size_t a, size_t b)
+{
+    return a > b ? a : b;
+}
+
+/* The arena plan (see the top of this file). Sizes in floats. */
+static int plan_arena(pl_model *m)
+{
+    const size_t H = (size_t)m->in_h, W = (size_t)m->in_w;
+    const size_t hw1 = (H / 4) * (W / 4), hw2 = hw1 / 4, hw3 = hw2 / 4, hw4 = hw3 / 4;
+    const size_t stem = 64 * (H / 2) * (W / 2);
+    const size_t a = max_sz(stem, max_sz(512 * hw2, 1024 * hw4));
+    const size_t b = max_sz(3 * H * W, max_sz(256 * hw1, 1024 * hw3));
+    const size_t t1 = max_sz(256 * hw1, max_sz(512 * hw2, 1024 * hw3));
+    const size_t t2 = max_sz(BOTTLENECK * hw1, 256 * hw1 / 4);
+    const int N = m->n_lights;
+    m->z_len = 1024 * m->bands;
+    const size_t small = (size_t)m->z_len + (size_t)m->fc_n + (size_t)(3 * N + N + 3 * N + 3) +
+                         (size_t)(m->z_len + 3 * N) + (size_t)m->dist_hidden + (size_t)N;
+    /* each region rounded up to 16 floats (64 bytes) */
+    const size_t regions[] = {a, b, t1, t2, small};
+    size_t total = 0;
+    for (size_t i = 0; i < sizeof regions / sizeof regions[0]; i++)
+        total += (regions[i] + 15) & ~(size_t)15;
+    size_t bytes;
+    if (!pl_mul_size(total, sizeof(float), &bytes))
+        return pl_error(PL_E_NOMEM, "arena size overflows");
+    m->arena = aligned_alloc(64, (bytes + 63) & ~(size_t)63);
+    if (!m->arena) return pl_error(PL_E_NOMEM, "cannot allocate the %zu-byte arena", bytes);
+    m->arena_floats = total;
+    float *p = m->arena;
+#define TAKE(dst, n) (dst = p, p += ((n) + 15) & ~(size_t)15)
+    TAKE(m->buf_a, a);
+    TAKE(m->buf_b, b);
+    TAKE(m->t1, t1);
+    TAKE(m->t2, t2);
+#undef TAKE
+    m->x_in = m->buf_b; /* the input is dead once conv0 has run; block 1 then takes B */
+    m->z = p;
+    p += m->z_len;
+    m->h = p;
+    p += m->fc_n;
+    m->out_dir = p;
+    p += 3 * N;
+    m->out_size = p;
+    p += N;
+    m->out_rgb = p;
+    p += 3 * N;
+    m->out_amb = p;
+    p += 3;
+    m->dist_in = p;
+    p += m->z_len + 3 * N;
+    m->dist_h = p;
+    p += m->dist_hidden;
+    m->out_dist = p;
+    return PL_OK;
+}
+
+int pl_model_load(const char *path, pl_model **out)
+{
+    if (!out) return pl_error(PL_E_ARG, "pl_model_load: out is NULL");
+    *out = NULL;
+    pl_model *m = calloc(1, sizeof *m);
+    if (!m) return pl_error(PL_E_NOMEM, "out of memory");
+    int rc = pl_plm_open(path, &m->file);
+    if (rc < 0) {
+        free(m);
+        return rc;
+    }
+    const pl_plm *f = &m->file;
+    const char *arch = pl_plm_meta(f, "arch"), *prec = pl_plm_meta(f, "precision");
+    if (!arch || strcmp(arch, "densenet121-parametric")) {
+        rc = pl_error(PL_E_MODEL, "%s: architecture '%s', expected 'densenet121-parametric'",
+                      f->path, arch ? arch : "(missing)");
+        goto fail;
+    }
+    if (!prec || strcmp(prec, "fp32")) {
+        rc = pl_error(PL_E_UNSUPPORTED, "%s: precision '%s' not supported by this build (fp32)",
+                      f->path, prec ? prec : "(missing)");
+        goto fail;
+    }
+    snprintf(m->arch, sizeof m->arch, "%s", arch);
+    snprintf(m->precision, sizeof m->precision, "%s", prec);
+    if ((rc = parse_int(f, "n_lights", 1, PL_MAX_LIGHTS, &m->n_lights)) < 0 ||
+        (rc = parse_int(f, "input_h", 96, 1024, &m->in_h)) < 0 ||
+        (rc = parse_int(f, "input_w", 64, 1024, &m->in_w)) < 0 ||
+        (rc = parse_int(f, "bands", 1, 3, &m->bands)) < 0 ||
+        (rc = parse_int(f, "fc", 1, 4096, &m->fc_n)) < 0 ||
+        (rc = parse_int(f, "dist_hidden", 1, 4096, &m->dist_hidden)) < 0 ||
+        (rc = parse_float3(f, "mean", 0, m->mean)) < 0 ||
+        (rc = parse_float3(f, "std", 1, m->std)) < 0)
+        goto fail;
+    if (m->n_lights != 2 && m->n_lights != 3 && m->n_lights != 5) {
+        rc = pl_error(PL_E_MODEL, "%s: n_lights=%d, expected 2, 3 or 5", f->path, m->n_lights);
+        goto fail;
+    }
+    if (m->in_h % 32 || m->in_w % 32) {
+        rc = pl_error(PL_E_MODEL, "%s: input %dx%d (h x w) must be multiples of 32", f->path,
+                      m->in_h, m->in_w);
+        goto fail;
+    }
+    if ((rc = bind_tensors(m)) < 0 || (rc = plan_arena(m)) < 0 ||
+        (rc = pl_pool_create(1, &m->pool)) < 0)
+        goto fail;
+    *out = m;
+    return PL_OK;
+fail:
+    pl_model_free(m);
+    return rc;
+}
+
+void pl_model_free(pl_model *m)
+{
+    if (!m) return;
+    pl_pool_destroy(m->pool);
+    free(m->arena);
+    pl_plm_close(&m->file);
+    free(m);
+}
+
+int pl_model_get_info(const pl_model *m, pl_model_info *info)
+{
+    if (!m || !info) return pl_error(PL_E_ARG, "pl_model_get_info: NULL argument");
+    const char *prov = pl_plm_meta(&m->file, "provenance");
+    info->arch = m->arch;
+    info->precision = m->precision;
+    info->provenance = prov ? prov : "";
+    info->n_lights = m->n_lights;
+    info->input_h = m->in_h;
+    info->input_w = m->in_w;
+    info->n_params = m->n_params;
+    info->file_size = (int64_t)m->file.map_size;
+    info->arena_bytes = m->arena_floats * sizeof(float);
+    return PL_OK;
+}
+
+int pl_model_set_threads(pl_model *m, int n)
+{
+    if (!m) return pl_error(PL_E_ARG, "pl_model_set_threads: model is NULL");
+    if (n == pl_pool_threads(m->pool)) return PL_OK;
+    pl_pool *p;
+    int rc = pl_pool_create(n, &p);
+    if (rc < 0) return rc;
+    pl_pool_destroy(m->pool);
+    m->pool = p;
+    return PL_OK;
+}
+
+int pl_model_last_latent(const pl_model *m, const float **z, int *n)
+{
+    if (!m || !z || !n) return pl_error(PL_E_ARG, "pl_model_last_latent: NULL argument");
+    if (!m->have_latent) return pl_error(PL_E_ARG, "no estimate has run on this model yet");
+    *z = m->z;
+    *n = m->z_len;
+    return PL_OK;
+}
+
+/* ---- execution ----------------------------------------------------------------------------- */
+
+enum op { OP_CONV, OP_BN_RELU, OP_MAXPOOL, OP_AVGPOOL, OP_FC };
+
+/* One kernel call, split over output channels by the pool. */
+struct job {
+    enum op op;
+    const void *params;
+    const float *in, *w, *b, *shift;
+    float *out;
+    int hw, n_in, relu;
+};
+
+static void run_job(void *ctx, int begin, int end)
+{
+    const struct job *j = ctx;
+    switch (j->op) {
+    case OP_CONV: nn_conv2d_f32__ref(j->params, j->in, j->w, j->b, j->out, begin, end); break;
+    case OP_BN_RELU: nn_bn_relu_f32__ref(j->in, j->w, j->shift, j->hw, j->out, begin, end); break;
+    case OP_MAXPOOL: nn_maxpool2d_f32__ref(j->params, j->in, j->out, begin, end); break;
+    case OP_AVGPOOL: nn_avgpool2d_f32__ref(j->params, j->in, j->out, begin, end); break;
+    case OP_FC: nn_fc_f32__ref(j->in, j->n_in, j->w, j->b, j->relu, j->out, begin, end); break;
+    }
+}
+
+static void conv(pl_model *m, const nn_conv_params *p, const float *in, const float *w,
+                 const float *b, float *out)
+{
+    struct job j = {.op = OP_CONV, .params = p, .in = in, .w = w, .b = b, .out = out};
+    pl_pool_for(m->pool, p->out_c, run_job, &j);
+}
+
+static void bn_relu(pl_model *m, const float *in, const float *scale, const float *shift, int c,
+                    int hw, float *out)
+{
+    struct job j = {.op = OP_BN_RELU, .in = in, .w = scale, .shift = shift, .hw = hw, .out = out};
+    pl_pool_for(m->pool, c, run_job, &j);
+}
+
+static void fc(pl_model *m, const float *in, int n_in, const float *w, const float *b, int n_out,
+               int relu, float *out)
+{
+    struct job j = {.op = OP_FC, .in = in, .n_in = n_in, .w = w, .b = b, .relu = relu, .out = out};
+    pl_pool_for(m->pool, n_out, run_job, &j);
+}
+
+static float softplus(float x)
+{
+    return x > 20.0f ? x : log1pf(expf(x)); /* PyTorch's softplus: beta 1, threshold 20 */
+}
+
+static void forward(pl_model *m)
+{
+    int h = m->in_h / 2, w = m->in_w / 2;
+    nn_conv_params c0 = {3, m->in_h, m->in_w, 64, h, w, 7, 7, 2, 3, 1};
+    conv(m, &c0, m->x_in, m->conv0_w, m->conv0_b, m->buf_a);
+
+    nn_pool_params p0 = {64, h, w, h / 2, w / 2, 3, 2, 1};
+    h /= 2;
+    w /= 2;
+    float *cur = m->buf_b, *next = m->buf_a;
+    struct job mp = {.op = OP_MAXPOOL, .params = &p0, .in = m->buf_a, .out = cur};
+    pl_pool_for(m->pool, 64, run_job, &mp);
+
+    int li = 0;
+    for (int b = 0; b < N_BLOCKS; b++) {
+        const int hw = h * w;
+        for (int l = 0; l < block_layers[b]; l++, li++) {
+            const struct dense_layer *L = &m->layers[li];
+            bn_relu(m, cur, L->n1_scale, L->n1_shift, L->cin, hw, m->t1);
+            nn_conv_params c1 = {L->cin, h, w, BOTTLENECK, h, w, 1, 1, 1, 0, 1};
+            conv(m, &c1, m->t1, L->c1_w, L->c1_b, m->t2);
+            nn_conv_params c2 = {BOTTLENECK, h, w, GROWTH, h, w, 3, 3, 1, 1, 0};
+            conv(m, &c2, m->t2, L->c2_w, NULL, cur + (size_t)L->cin * hw);
+        }
+        if (b < N_BLOCKS - 1) {
+            const struct transition *T = &m->trans[b];
+            bn_relu(m, cur, T->scale, T->shift, T->cin, hw, m->t1);
+            nn_pool_params ap = {T->cin, h, w, h / 2, w / 2, 2, 2, 0};
+            struct job j = {.op = OP_AVGPOOL, .params = &ap, .in = m->t1, .out = m->t2};
+            pl_pool_for(m->pool, T->cin, run_job, &j);
+            h /= 2;
+            w /= 2;
+            nn_conv_params tc = {T->cin, h, w, T->cin / 2, h, w, 1, 1, 1, 0, 0};
+            conv(m, &tc, m->t2, T->w, NULL, next);
+            float *t = cur;
+            cur = next;
+            next = t;
+        }
+    }
+    bn_relu(m, cur, m->n5_scale, m->n5_shift, 1024, h * w, m->t1);
+    nn_band_pool_f32__ref(m->t1, 1024, h, w, m->bands, m->z);
+
+    const int N = m->n_lights;
+    fc(m, m->z, m->z_len, m->fc_w, m->fc_b, m->fc_n, 1, m->h);
+    fc(m, m->h, m->fc_n, m->dir_w, m->dir_b, 3 * N, 0, m->out_dir);
+    fc(m, m->h, m->fc_n, m->size_w, m->size_b, N, 0, m->out_size);
+    fc(m, m->h, m->fc_n, m->rgb_w, m->rgb_b, 3 * N, 0, m->out_rgb);
+    fc(m, m->h, m->fc_n, m->amb_w, m->amb_b, 3, 0, m->out_amb);
+    for (int i = 0; i < N; i++) { /* F.normalize(eps=1e-12) */
+        float *d = m->out_dir + 3 * i;
+        const float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        const float inv = 1.0f / (n > 1e-12f ? n : 1e-12f);
+        d[0] *= inv;
+        d[1] *= inv;
+        d[2] *= inv;
+    }
+    for (int i = 0; i < N; i++) m->out_size[i] = softplus(m->out_size[i]);
+    for (int i = 0; i < 3 * N; i++) m->out_rgb[i] = softplus(m->out_rgb[i]);
+    for (int i = 0; i < 3; i++) m->out_amb[i] = softplus(m->out_amb[i]);
+    memcpy(m->dist_in, m->z, (size_t)m->z_len * sizeof(float));
+    memcpy(m->dist_in + m->z_len, m->out_dir, (size_t)(3 * N) * sizeof(float));
+    fc(m, m->dist_in, m->z_len + 3 * N, m->d1_w, m->d1_b, m->dist_hidden, 1, m->dist_h);
+    fc(m, m->dist_h, m->dist_hidden, m->d2_w, m->d2_b, N, 0, m->out_dist);
+    for (int i = 0; i < N; i++) m->out_dist[i] = softplus(m->out_dist[i]);
+}
+
+int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, size_t stride,
+                     pl_lighting *out, pl_timing *timing)
+{
+    if (!m || !rgb || !out) return pl_error(PL_E_ARG, "pl_estimate_rgb8: NULL argument");
+    if (width < 8 || height < 8 || width > PL_IMAGE_MAX_SIDE || height > PL_IMAGE_MAX_SIDE)
+        return pl_error(PL_E_ARG, "frame %dx%d: each side must be in 8..%d", width, height,
+                        PL_IMAGE_MAX_SIDE);
+    if (stride < (size_t)width * 3)
+        return pl_error(PL_E_ARG, "frame stride %zu smaller than 3 x width (%d)", stride, width);
+    const int64_t t0 = pl_now_ns();
+    int x0, y0, cw, ch;
+    pl_crop_to_aspect(width, height, m->in_w, m->in_h, &x0, &y0, &cw, &ch);
+    pl_resize_area_rgb8_to_chw(rgb, stride, x0, y0, cw, ch, m->x_in, m->in_w, m->in_h);
+    const size_t plane = (size_t)m->in_h * m->in_w;
+    for (int c = 0; c < 3; c++) {
+        const float a = 1.0f / (255.0f * m->std[c]), b = -m->mean[c] / m->std[c];
+        float *x = m->x_in + c * plane;
+        for (size_t i = 0; i < plane; i++) x[i] = x[i] * a + b;
+    }
+    const int64_t t1 = pl_now_ns();
+    forward(m);
+    m->have_latent = 1;
+    const int64_t t2 = pl_now_ns();
+
+    memset(out, 0, sizeof *out);
+    out->n_lights = m->n_lights;
+    for (int i = 0; i < m->n_lights; i++) {
+        pl_light *L = &out->lights[i];
+        memcpy(L->dir, m->out_dir + 3 * i, sizeof L->dir);
+        memcpy(L->rgb, m->out_rgb + 3 * i, sizeof L->rgb);
+        L->distance_m = m->out_dist[i];
+        L->solid_angle_sr = m->out_size[i];
+    }
+    memcpy(out->ambient, m->out_amb, sizeof out->ambient);
+    if (timing) {
+        timing->preprocess_ms = (double)(t1 - t0) / 1e6;
+        timing->infer_ms = (double)(t2 - t1) / 1e6;
+    }
+    return PL_OK;
+}
