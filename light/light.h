@@ -1,0 +1,100 @@
+/* Lighting maths: environment maps from parametric lights (the paper's eq. 4), relighting at
+ * another point, AR outputs (primary light, L2 spherical harmonics, cube maps), sphere renders
+ * and render metrics. All conventions (mapping, SG, SH basis and constants, cube-map faces, the
+ * render model, metrics) are written down in docs/LIGHTING.md.
+ *
+ * Directions are unit vectors in the camera frame (x right, y up, camera looks along -z).
+ * Images are pl_image_f32 (linear RGB, interleaved, packed rows); an environment map is a
+ * W x W/2 equirectangular image in the light/equirect.h mapping. Images filled by these
+ * functions are allocated here and owned by the caller (pl_image_f32_free). */
+#ifndef PL_LIGHT_LIGHT_H
+#define PL_LIGHT_LIGHT_H
+
+#include "parlight.h"
+#include "port/image.h"
+
+/* Eq. (4), taken literally (DESIGN.md): radiance of the lights + ambient in unit direction u:
+ * sum_i c_i exp((l_i.u - 1) / (s_i / 4pi)) + a. */
+void pl_lights_radiance(const pl_lighting *L, const float u[3], float rgb[3]);
+
+/* Energy (integral over the sphere) of one lobe per unit peak radiance, steradians:
+ * 2 pi sigma (1 - exp(-2 / sigma)), sigma = s / 4pi  (about s / 2 for small s). */
+double pl_sg_integral(double solid_angle_sr);
+
+/* Checks a lighting for use by the functions here: 0 <= n_lights <= PL_MAX_LIGHTS, finite
+ * values, unit-ish directions (|dir| in [0.5, 2], normalised by users), distance > 0, solid
+ * angle > 0, rgb and ambient >= 0. Returns 0 or PL_E_ARG naming light and field. */
+int pl_lighting_check(const pl_lighting *L);
+
+/* Area-averaged copy of an equirectangular map at width x width/2 (width even, <= env->width):
+ * each output pixel is the solid-angle-weighted mean of the source area it covers, so energy is
+ * kept. When width == env->width it is a plain copy. *out is allocated. */
+int pl_envmap_downsample(const pl_image_f32 *env, int width, pl_image_f32 *out);
+
+/* Equirectangular W x W/2 map of the lights + ambient (light/equirect.h mapping), each pixel the
+ * radiance at its centre direction. width even, 2..PL_IMAGE_MAX_SIDE. *out is allocated. */
+int pl_envmap_from_lights(const pl_lighting *L, int width, pl_image_f32 *out);
+
+/* The lights as seen from point p (metres, camera frame): direction d*l - p, distance |d*l - p|,
+ * solid angle scaled by (d/|d*l - p|)^2; rgb (peak radiance) and ambient unchanged. PL_E_ARG if p
+ * is within 1 mm of a light or not finite. p = 0 returns L unchanged. out may be L. */
+int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_lighting *out);
+
+/* Main light for AR: the light with the largest energy, luminance(rgb) * pl_sg_integral(s) with
+ * luminance = 0.2126 r + 0.7152 g + 0.0722 b (the first one on ties). dir = its direction, rgb =
+ * its peak radiance c_i. Returns the index of that light (>= 0); with no lights dir = (0, 1, 0),
+ * rgb = (0, 0, 0) and it returns 0 as well (PL_E_ARG only for NULL outputs). */
+int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
+
+/* 27 L2 SH coefficients, WebXR order (9 coefficients x RGB interleaved: L00.r, L00.g, L00.b,
+ * L1-1.r, ...), in the order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real orthonormal
+ * basis. They project RADIANCE (not irradiance): sh[k] = integral L(u) Y_k(u) du. Basis
+ * constants and the irradiance conversion are in docs/LIGHTING.md. SG lobes are projected in
+ * closed form (zonal), so this is exact up to float rounding. */
+void pl_sh9_from_lights(const pl_lighting *L, float sh[27]);
+/* The same projection of an equirectangular map (sum over pixels of L * Y * pixel solid angle). */
+int pl_sh9_from_envmap(const pl_image_f32 *env, float sh[27]);
+/* Evaluates the radiance of 27 SH coefficients in unit direction u. */
+void pl_sh9_eval(const float sh[27], const float u[3], float rgb[3]);
+
+/* HDR cube map, 6 faces in order +X, -X, +Y, -Y, +Z, -Z (OpenGL cube-map conventions, as WebXR's
+ * XRLightProbe / WebGL TEXTURE_CUBE_MAP use), each face x face RGB floats, rows top to bottom,
+ * interleaved RGB: out holds 6 * face * face * 3 floats (caller-owned). Face orientation in
+ * docs/LIGHTING.md. face 1..4096. */
+int pl_cubemap_from_lights(const pl_lighting *L, int face, float *out);
+/* The same sampled bilinearly from an equirectangular map (wrapping in longitude). */
+int pl_cubemap_from_envmap(const pl_image_f32 *env, int face, float *out);
+/* Unit direction through the centre of pixel (x, y) of cube face f (0..5); x, y may be fractional.
+ */
+void pl_cubemap_dir(int f, int face, double x, double y, double dir[3]);
+
+/* A sphere seen from the camera (orthographic, looking along -z), size x size pixels, lit by an
+ * equirectangular map or by lights; background pixels 0 and reported by pl_sphere_mask.
+ * Diffuse: white Lambertian (albedo 1): (1/pi) int L(u) max(0, n.u) du.
+ * Glossy: the radiance filtered by a normalised spherical-Gaussian lobe of sharpness
+ * PL_GLOSSY_SHARPNESS around the mirror direction r = 2(n.v)n - v (v = +z toward the camera):
+ * int L(u) D(u) du with D(u) = k exp(g (r.u - 1)), k = g / (2pi (1 - exp(-2g))), int D = 1
+ * (docs/LIGHTING.md). Lights render analytically; maps by brute force over a copy area-averaged
+ * to PL_RENDER_MAP_WIDTH x PL_RENDER_MAP_WIDTH/2 (when larger). size 1..4096. *out is allocated. */
+typedef enum pl_material { PL_MATERIAL_DIFFUSE, PL_MATERIAL_GLOSSY } pl_material;
+#define PL_GLOSSY_SHARPNESS 32.0
+#define PL_RENDER_MAP_WIDTH 128
+int pl_render_sphere_envmap(const pl_image_f32 *env, pl_material m, int size, pl_image_f32 *out);
+int pl_render_sphere_lights(const pl_lighting *L, pl_material m, int size, pl_image_f32 *out);
+/* 1 when pixel (x, y) of a size x size render is on the sphere (its centre within the disc). */
+int pl_sphere_mask(int size, int x, int y);
+
+/* Metrics over the sphere pixels (mask) of two renders of the same size, all three channels:
+ *   RMSE    = sqrt(mean((a - b)^2))
+ *   si-RMSE = RMSE after the least-squares scale alpha = <a,b>/<a,a> applied to a
+ *             (alpha = 1 when a is all zero).
+ * Negative (PL_E_ARG) when the sizes differ or an image is NULL. */
+double pl_render_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
+double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
+
+/* Display version of a linear image for PNG: exposure so that the 99th percentile of the pixels'
+ * max(r,g,b) (over pixels with any non-zero channel) maps to 1, clip, sRGB OETF, rounded to
+ * 8 bits. *out is allocated (pl_image_u8_free). */
+int pl_tonemap_rgb8(const pl_image_f32 *img, pl_image_u8 *out);
+
+#endif
