@@ -7,7 +7,11 @@
 /* X(name, summary) — one line per command, in the order `parlight --help` lists them. */
 #define PL_COMMANDS(X)                                                                             \
     X(estimate, "estimate lights from image files, videos or directories (JSON lines)")            \
-    X(info, "print a model's architecture, N, input size, parameters and file size")
+    X(info, "print a model's architecture, N, input size, parameters and file size")              \
+    X(render, "render lights (JSON) to an env map, cube map or sphere image (EXR/HDR/PNG)")        \
+    X(compare, "RMSE and scale-invariant RMSE between two lightings (sphere renders)")        \
+    X(extract, "ground-truth lights + ambient from an HDR panorama (JSON)")                    \
+    X(crop, "perspective LDR crops of an HDR panorama with their ground-truth lights")
 
 #define PL_DECLARE(name, summary) int cmd_##name(int argc, char **argv);
 PL_COMMANDS(PL_DECLARE)

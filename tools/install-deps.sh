@@ -9,7 +9,7 @@ PKGS=(
     build-essential pkg-config
     libopencv-dev          # image and video files (port/image_io.cpp)
     libopenexr-dev         # .exr panoramas and maps
-    python3-torch python3-torchvision python3-numpy   # reference model, exporter, golden tests
+    python3-torch python3-torchvision python3-numpy python3-pil   # reference model, exporter, golden tests
 )
 
 missing=()
