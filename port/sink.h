@@ -1,0 +1,123 @@
+/* Output sinks for the JSON-lines stream (`parlight estimate --out SPEC`, docs/OUTPUT.md
+ * "Streaming"). One line = one JSON object followed by '\n'.
+ *
+ * Specs (parsed strictly; anything else is PL_E_ARG with a message naming the spec):
+ *   stdout, -             standard output (the default)
+ *   udp://HOST:PORT       one datagram per line sent to HOST:PORT (PORT 1..65535)
+ *   tcp://HOST:PORT       a TCP server listening on HOST:PORT for any number of readers
+ *                         (PORT 0..65535; 0 = a free port, see pl_sink_address)
+ *   unix:PATH             a Unix stream-socket server at PATH (< 108 bytes)
+ * HOST is an IPv4 address (127.0.0.1), an IPv6 address in brackets ([::1]), or a host name
+ * (letters, digits, '-', '.', '_'; resolved once at open, the first usable address is taken).
+ * An empty HOST (tcp://:9000, udp://:5000) means 127.0.0.1: a server listens on loopback unless a
+ * non-loopback address (0.0.0.0, [::], an interface's address) is written out.
+ * Open failures: unresolvable host, address in use, bind/listen errors: PL_E_DEVICE naming the
+ * spec and the system's reason. unix:PATH refuses to replace a file that is not a socket
+ * (PL_E_IO); an existing socket is replaced only if nothing accepts on it (a stale one left by a
+ * crash), else "address in use". The socket file is unlinked on close (if it is still ours).
+ *
+ * Writing never blocks the caller (except stdout, see below) and never raises SIGPIPE:
+ *   - stream servers (tcp, unix) have no thread: each pl_sink_write first accepts pending
+ *     clients (non-blocking listening socket, at most PL_SINK_MAX_CLIENTS at once; extra ones
+ *     are closed at once and counted), reads and discards what clients send, then queues the
+ *     line for every client and sends what each socket takes (MSG_DONTWAIT | MSG_NOSIGNAL).
+ *     Each client has a queue of PL_SINK_QUEUE_BYTES (64 KiB) beyond the kernel's socket buffer
+ *     (SO_SNDBUF set to PL_SINK_SOCKET_BUF); a client whose queue would overflow is dropped, as is
+ *     one whose connection failed (reset, closed). So a client that connects and never reads is
+ *     dropped after about PL_SINK_QUEUE_BYTES + 2 * PL_SINK_SOCKET_BUF + its receive buffer of
+ *     backlog, while the others keep receiving every line. A client is accepted at the next
+ *     write after it connects and receives whole lines from then on; a client that is dropped
+ *     may read the start of one more line (what the kernel had already taken) before EOF, so a
+ *     reader discards an unterminated last line.
+ *   - udp: a non-blocking connected socket; a line that the socket cannot take right now
+ *     (EAGAIN) or that nobody receives (ICMP refused) is dropped and counted; a line longer than
+ *     PL_SINK_UDP_MAX bytes is an error for that line (counted; the sink stays usable).
+ *   - stdout: blocking writes (a file or pipe chosen by the user, where losing lines would be
+ *     wrong); a reader that went away gives PL_E_IO (EPIPE), not a SIGPIPE death (SIGPIPE is
+ *     blocked in the calling thread around the write and a pending one is consumed).
+ * Events (client connected, dropped as slow, disconnected, refused) are counted in
+ * pl_sink_stats and queued as messages naming the sink for the caller to log
+ * (pl_sink_next_event); the library prints nothing.
+ *
+ * A sink is used by one thread at a time. */
+#ifndef PL_PORT_SINK_H
+#define PL_PORT_SINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define PL_SINK_MAX_CLIENTS 16
+#define PL_SINK_QUEUE_BYTES (64 * 1024)
+#define PL_SINK_SOCKET_BUF (64 * 1024)
+#define PL_SINK_UDP_MAX 65507 /* the largest UDP payload over IPv4 */
+#define PL_SINK_SPEC_MAX 255  /* longest spec accepted */
+#define PL_SINK_CLOSE_MS 250  /* how long pl_sink_close may spend flushing clients */
+#define PL_SINK_EVENT_MAX 256 /* longest event message, with its NUL */
+
+typedef struct pl_sink pl_sink;
+
+typedef struct pl_sink_stats {
+    uint64_t lines;         /* lines accepted by pl_sink_write */
+    uint64_t lines_failed;  /* lines rejected: too long for a datagram or the queue, or a
+                               write error on stdout / udp */
+    uint64_t lines_dropped; /* udp: lines the socket could not take or nobody received */
+    uint64_t bytes;         /* bytes handed to the kernel (all clients) */
+    int clients;            /* clients connected now (tcp, unix) */
+    uint64_t accepted;      /* clients accepted since open */
+    uint64_t dropped_slow;  /* clients dropped because their queue would overflow */
+    uint64_t disconnected;  /* clients gone (closed, reset) */
+    uint64_t refused;       /* connections closed at once: PL_SINK_MAX_CLIENTS reached */
+} pl_sink_stats;
+
+/* Opens the sink described by spec (see above). *out owned by the caller (pl_sink_close). */
+int pl_sink_open(const char *spec, pl_sink **out);
+
+/* Sends one line: len bytes, ending with '\n' and holding no other '\n' (PL_E_ARG otherwise).
+ * Returns 0 when the line was accepted (even if some client was dropped, or no client is
+ * connected), or a negative status for this line only (message names the sink); the sink stays
+ * usable either way. */
+int pl_sink_write(pl_sink *sink, const char *line, size_t len);
+
+/* Copies the oldest pending event message into msg (cap bytes, truncated, NUL-terminated) and
+ * returns 1, or returns 0 when there is none. At most 32 are kept; older ones are lost and one
+ * message says how many. */
+int pl_sink_next_event(pl_sink *sink, char *msg, size_t cap);
+
+void pl_sink_get_stats(const pl_sink *sink, pl_sink_stats *stats);
+
+/* The spec as given at open. */
+const char *pl_sink_spec(const pl_sink *sink);
+
+/* Where the sink listens or sends: "127.0.0.1:40123", "[::1]:9000", the Unix path, "stdout".
+ * Useful with port 0. */
+const char *pl_sink_address(const pl_sink *sink);
+
+/* Sends what is still queued to clients for at most PL_SINK_CLOSE_MS, closes every socket,
+ * unlinks a Unix socket file, frees the sink. NULL is fine. */
+void pl_sink_close(pl_sink *sink);
+
+/* ---- several sinks (several --out) -------------------------------------------------------- */
+
+#define PL_SINKS_MAX 8
+
+typedef struct pl_sinks pl_sinks;
+
+/* Opens every spec (n in 0..PL_SINKS_MAX; n == 0 means one "stdout" sink), all or none: on a
+ * failure the ones already open are closed and the error names the failing spec. The same spec
+ * twice is PL_E_ARG. */
+int pl_sinks_open(const char *const *specs, int n, pl_sinks **out);
+
+/* Writes the line to every sink. Returns 0, or the first sink's negative status (message names
+ * it) after still writing to all the others. */
+int pl_sinks_write(pl_sinks *sinks, const char *line, size_t len);
+
+/* Pending event of any sink, as pl_sink_next_event. */
+int pl_sinks_next_event(pl_sinks *sinks, char *msg, size_t cap);
+
+int pl_sinks_count(const pl_sinks *sinks);
+/* The i-th sink (0-based, in spec order), or NULL. */
+pl_sink *pl_sinks_get(pl_sinks *sinks, int i);
+
+void pl_sinks_close(pl_sinks *sinks);
+
+#endif
