@@ -3,31 +3,42 @@
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "app/cli.h"
 #include "app/commands.h"
 #include "light/light.h"
 #include "light/lights_json.h"
+#include "light/temporal.h"
 #include "parlight.h"
+#include "port/sink.h"
 #include "port/source.h"
 #include "port/util.h"
 
 static void help(FILE *f)
 {
     fprintf(f,
-            "usage: parlight estimate --model M.plm --input PATH [--n-frames K] [--threads N]\n"
-            "                         [--at X,Y,Z]\n\n"
+            "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
+            "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
             "frame on stdout (schema: docs/OUTPUT.md).\n\n"
             "  --model M.plm   model file (see parlight info)\n"
             "  --input PATH    image, video or directory\n"
+            "  --camera SPEC   a live camera instead: v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]],\n"
+            "                  FORMAT yuyv|nv12|rgb24|mjpeg (see parlight cameras, docs/CAMERAS.md)\n"
             "  --n-frames K    stop after K frames (default: all)\n"
             "  --threads N     worker threads, 1..64 (default 1); results do not depend on N\n"
             "  --at X,Y,Z      report the lighting seen from this point (metres, camera frame)\n"
-            "                  instead of from the camera\n");
+            "                  instead of from the camera\n"
+            "  --smooth ALPHA  temporal filter, weight of the newest frame in (0, 1]: lights keep\n"
+            "                  their identity across frames and fade in and out; 1 = off.\n"
+            "                  Default: 0.5 for --camera, off for --input (files are often unrelated)\n"
+            "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
+            "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
+            "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n");
 }
 
 static int finite_lighting(const pl_lighting *L)
@@ -81,19 +92,25 @@ int cmd_estimate(int argc, char **argv)
 {
     static const struct option opts[] = {{"model", required_argument, 0, 'm'},
                                          {"input", required_argument, 0, 'i'},
+                                         {"camera", required_argument, 0, 'C'},
                                          {"n-frames", required_argument, 0, 'n'},
                                          {"threads", required_argument, 0, 't'},
                                          {"at", required_argument, 0, 'a'},
+                                         {"smooth", required_argument, 0, 's'},
+                                         {"out", required_argument, 0, 'o'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
-    const char *model_path = NULL, *input = NULL;
+    const char *model_path = NULL, *input = NULL, *camera = NULL;
     int n_frames = 0, threads = 1, have_at = 0, c;
-    float at[3] = {0, 0, 0};
+    float at[3] = {0, 0, 0}, alpha = -1.0f;
+    const char *outs[PL_SINKS_MAX];
+    int n_outs = 0;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:n:t:a:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
+        case 'C': camera = optarg; break;
         case 'n':
             if (cli_int("estimate", "--n-frames", optarg, 1, 1000000000, &n_frames) < 0) return 2;
             break;
@@ -103,6 +120,24 @@ int cmd_estimate(int argc, char **argv)
         case 'a':
             if (cli_float3("estimate", "--at", optarg, at) < 0) return 2;
             have_at = 1;
+            break;
+        case 's': {
+            char *end;
+            double v = strtod(optarg, &end);
+            if (end == optarg || *end || !(v > 0.0 && v <= 1.0)) {
+                fprintf(stderr, "parlight estimate: --smooth '%s': expected a number in (0, 1]\n",
+                        optarg);
+                return 2;
+            }
+            alpha = (float)v;
+            break;
+        }
+        case 'o':
+            if (n_outs == PL_SINKS_MAX) {
+                fprintf(stderr, "parlight estimate: at most %d --out\n", PL_SINKS_MAX);
+                return 2;
+            }
+            outs[n_outs++] = optarg;
             break;
         case 'h': help(stdout); return 0;
         case ':':
@@ -118,30 +153,51 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: unexpected argument '%s'\n", argv[optind]);
         return 2;
     }
-    if (!model_path || !input) {
+    if (!model_path || (!input && !camera)) {
         fprintf(stderr, "parlight estimate: %s is required (see --help)\n",
-                !model_path ? "--model" : "--input");
+                !model_path ? "--model" : "--input or --camera");
+        return 2;
+    }
+    if (input && camera) {
+        fprintf(stderr, "parlight estimate: --input and --camera exclude each other\n");
         return 2;
     }
 
     pl_model *model = NULL;
     pl_source *src = NULL;
+    pl_sinks *sinks = NULL;
+    pl_smoother smoother;
     int rc = 1;
+    if (alpha < 0) alpha = camera ? PL_SMOOTH_DEFAULT_ALPHA : 1.0f;
+    if (pl_smoother_init(&smoother, alpha) < 0) {
+        fprintf(stderr, "parlight estimate: --smooth: %s\n", pl_last_error());
+        return 2;
+    }
+    int st_open = pl_sinks_open(outs, n_outs, &sinks);
+    if (st_open < 0) {
+        fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+        return st_open == PL_E_ARG ? 2 : 1;
+    }
     if (pl_model_load(model_path, &model) < 0 || pl_model_set_threads(model, threads) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
-    if (pl_source_open_path(input, &src) < 0) {
+    if ((camera ? pl_source_open_camera(camera, &src) : pl_source_open_path(input, &src)) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
     long long done = 0, skipped = 0;
-    char line[16384], source[4096];
+    int64_t prev_t_ns = 0;
+    char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
         pl_frame fr;
         const int64_t t0 = pl_now_ns();
         int st = pl_source_read(src, &fr);
+        if (st == PL_E_EOF && camera) { /* a camera only ends when it is lost for good */
+            fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+            goto out;
+        }
         if (st == PL_E_EOF) break;
         if (st < 0) { /* one bad frame (a corrupt file in a directory): skipped and counted */
             fprintf(stderr, "parlight estimate: warning: skipping frame: %s\n", pl_last_error());
@@ -150,8 +206,14 @@ int cmd_estimate(int argc, char **argv)
         }
         pl_lighting L;
         pl_timing tm;
+        /* the filter's clock: the frames' own timestamps when they advance sensibly, else a
+         * nominal 30 fps (files: modification times say nothing about the frame interval) */
+        double dt_s = done ? (double)(fr.t_ns - prev_t_ns) / 1e9 : 0.0;
+        if (done && !(dt_s > 0.0 && dt_s <= 10.0)) dt_s = 1.0 / 30.0;
+        prev_t_ns = fr.t_ns;
         if (pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
                              fr.image.stride, &L, &tm) < 0 ||
+            pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {
             fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
             goto out;
@@ -171,21 +233,27 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
-        if (fputs(line, stdout) == EOF || fflush(stdout) == EOF) {
-            fprintf(stderr, "parlight estimate: cannot write to stdout\n");
-            goto out;
+        if (pl_sinks_write(sinks, line, strlen(line)) < 0) {
+            if (n_outs == 0) { /* stdout alone: its reader is gone, nobody is listening */
+                fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+                goto out;
+            }
+            fprintf(stderr, "parlight estimate: warning: %s\n", pl_last_error());
         }
+        while (pl_sinks_next_event(sinks, event, sizeof event))
+            fprintf(stderr, "parlight estimate: %s\n", event);
         done++;
     }
     if (skipped || done == 0)
         fprintf(stderr, "parlight estimate: %lld frame%s estimated, %lld skipped\n", done,
                 done == 1 ? "" : "s", skipped);
     if (done == 0) {
-        fprintf(stderr, "parlight estimate: no usable frame in %s\n", input);
+        fprintf(stderr, "parlight estimate: no usable frame in %s\n", camera ? camera : input);
         goto out;
     }
     rc = 0;
 out:
+    pl_sinks_close(sinks);
     pl_source_close(src);
     pl_model_free(model);
     return rc;

@@ -58,6 +58,42 @@ echo "ok  1 and 2 threads give identical lights"
 cmp -s <(lights "$T/at.jsonl") "$T/b" && fail "--at changed nothing"
 echo "ok  --n-frames and --at"
 
+# --- sinks: the same lines on stdout and over UDP; the temporal filter ---
+port_file="$T/udp.port"
+/usr/bin/python3 - "$port_file" "$T/udp.jsonl" <<'PY' &
+import socket, sys
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+s.bind(("127.0.0.1", 0)); s.settimeout(20)
+open(sys.argv[1] + ".tmp", "w").write(str(s.getsockname()[1]))
+import os; os.rename(sys.argv[1] + ".tmp", sys.argv[1])
+with open(sys.argv[2], "w") as out:
+    for _ in range(5):
+        out.write(s.recv(65536).decode())
+PY
+rx=$!
+for _ in $(seq 100); do [ -f "$port_file" ] && break; sleep 0.1; done
+"$P" estimate --model "$M" --input tests/data/frames --out stdout --out "udp://127.0.0.1:$(cat "$port_file")" >"$T/both.jsonl" || fail "--out stdout --out udp"
+wait $rx || fail "UDP receiver got fewer than 5 datagrams"
+cmp -s "$T/both.jsonl" "$T/udp.jsonl" || fail "UDP datagrams differ from the stdout lines"
+echo "ok  --out stdout + udp: identical lines"
+"$P" estimate --model "$M" --input tests/data/frames --smooth 0.3 >"$T/smooth.jsonl" || fail "--smooth"
+/usr/bin/python3 - "$T/all.jsonl" "$T/smooth.jsonl" <<'PY' || fail "--smooth"
+import json, sys
+raw = [json.loads(l) for l in open(sys.argv[1])]
+sm = [json.loads(l) for l in open(sys.argv[2])]
+assert len(raw) == len(sm) == 5
+assert sm[0]["ambient"] == raw[0]["ambient"], "the first frame's ambient must pass through"
+# ambient is an exponential moving average with weight 0.3 on the newest frame
+for k in range(3):
+    a = raw[0]["ambient"][k]
+    for f in raw[1:]:
+        a = 0.7 * a + 0.3 * f["ambient"][k]
+    assert abs(sm[-1]["ambient"][k] - a) <= 1e-5 * max(1.0, abs(a)), (sm[-1]["ambient"], a)
+assert sm[-1]["lights"] != raw[-1]["lights"]
+print("smoothed ambient follows the EMA")
+PY
+echo "ok  --smooth filters"
+
 # --- image variants that must work: grayscale, 16-bit, alpha, PNG, BMP, TIFF, odd sizes ---
 /usr/bin/python3 - "$frame" "$T" <<'PY' || fail "making image variants"
 import sys
@@ -86,12 +122,17 @@ echo "not an image" >"$T/text.jpg"
 head -c 1000000 "$M" >"$T/truncated.plm"
 mkdir -p "$T/emptydir" "$T/junkdir"
 cp "$T/text.jpg" "$T/noise.png" "$T/junkdir/"
-expect_error 2 "--input is required" "$P" estimate --model "$M"
+expect_error 2 "--input.*required" "$P" estimate --model "$M"
 expect_error 2 "--model is required" "$P" estimate --input "$frame"
 expect_error 2 "threads.*1\.\.64" "$P" estimate --model "$M" --input "$frame" --threads 0
 expect_error 2 "n-frames" "$P" estimate --model "$M" --input "$frame" --n-frames abc
 expect_error 2 "--at" "$P" estimate --model "$M" --input "$frame" --at 1,2
 expect_error 2 "unknown option" "$P" estimate --model "$M" --input "$frame" --bogus
+expect_error 2 "smooth" "$P" estimate --model "$M" --input "$frame" --smooth 0
+expect_error 2 "smooth" "$P" estimate --model "$M" --input "$frame" --smooth 1.5
+expect_error 2 "unknown kind" "$P" estimate --model "$M" --input "$frame" --out ftp://x
+expect_error 2 "port" "$P" estimate --model "$M" --input "$frame" --out udp://127.0.0.1:99999
+expect_error 2 "exclude" "$P" estimate --model "$M" --input "$frame" --camera v4l2:/dev/video0
 expect_error 1 "no such file|cannot open|not found|does not exist" "$P" estimate --model "$M" --input "$T/missing.jpg"
 expect_error 1 "truncated|bytes" "$P" estimate --model "$T/truncated.plm" --input "$frame"
 expect_error 1 "empty|0 bytes|zero" "$P" estimate --model "$M" --input "$T/empty.jpg"
