@@ -55,7 +55,7 @@ build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 	@mkdir -p $(dir $@)
 	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force
 
-.PHONY: all deps demo test tests clean format-check
+.PHONY: all deps demo test tests clean format-check test-camera
 all: $(CLI) tests
 
 tests: $(TEST_BIN)
@@ -98,6 +98,12 @@ test:
 	@tools/install-deps.sh
 	@$(MAKE) --no-print-directory all $(SEEDED)
 	@BUILD=$(BUILD) tests/run.sh
+
+# The camera tests alone: pixel conversions and the QEMU + vivid rig (tools/camrig, ~1.5 min).
+test-camera:
+	@tools/install-deps.sh
+	@$(MAKE) --no-print-directory all $(SEEDED)
+	@BUILD=$(BUILD) TEST_FILTER='^test_(camera|pixfmt|v4l2)' tests/run.sh
 
 format-check:
 	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror

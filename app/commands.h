@@ -7,6 +7,7 @@
 /* X(name, summary) — one line per command, in the order `parlight --help` lists them. */
 #define PL_COMMANDS(X)                                                                             \
     X(estimate, "estimate lights from image files, videos or directories (JSON lines)")            \
+    X(cameras, "list V4L2 cameras with their formats, frame sizes and rates")                      \
     X(info, "print a model's architecture, N, input size, parameters and file size")              \
     X(render, "render lights (JSON) to an env map, cube map or sphere image (EXR/HDR/PNG)")        \
     X(compare, "RMSE and scale-invariant RMSE between two lightings (sphere renders)")        \

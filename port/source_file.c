@@ -12,9 +12,10 @@
 #include <sys/stat.h>
 
 #include "port/util.h"
+#include "port/v4l2.h"
 #include "port/video_cv.h"
 
-enum source_kind { SRC_FILE, SRC_VIDEO, SRC_DIR };
+enum source_kind { SRC_FILE, SRC_VIDEO, SRC_DIR, SRC_CAMERA };
 
 typedef struct dir_entry {
     char *name;
@@ -38,6 +39,8 @@ struct pl_source {
     /* SRC_VIDEO */
     pl_video *video;
     int64_t video_index;
+    /* SRC_CAMERA (port/source_v4l2.c) */
+    pl_v4l2 *camera;
 };
 
 static const char *const video_exts[] = {"mp4",  "m4v", "mov",  "avi",  "mkv",  "webm", "mjpeg",
@@ -213,6 +216,30 @@ int pl_source_open_path(const char *path, pl_source **out)
     return PL_OK;
 }
 
+int pl_source_open_camera(const char *spec, pl_source **out)
+{
+    if (!out) return pl_error(PL_E_ARG, "pl_source_open_camera: out is NULL");
+    *out = NULL;
+    pl_v4l2_spec vs;
+    int rc = pl_v4l2_parse_spec(spec, &vs);
+    if (rc < 0) return rc;
+    pl_source *s = calloc(1, sizeof *s);
+    if (!s) return pl_error(PL_E_NOMEM, "%s: out of memory", spec);
+    s->kind = SRC_CAMERA;
+    rc = pl_v4l2_open(&vs, &s->camera);
+    if (rc == PL_OK) {
+        s->desc = dup_str(pl_v4l2_describe(s->camera));
+        s->path = dup_str(vs.path);
+        if (!s->desc || !s->path) rc = pl_error(PL_E_NOMEM, "%s: out of memory", spec);
+    }
+    if (rc < 0) {
+        pl_source_close(s);
+        return rc;
+    }
+    *out = s;
+    return PL_OK;
+}
+
 static int end_of_source(pl_source *s)
 {
     s->eof = true;
@@ -246,6 +273,15 @@ int pl_source_read(pl_source *s, pl_frame *frame)
         frame->name = s->path;
         break;
     }
+    case SRC_CAMERA:
+        rc = pl_v4l2_read(s->camera, &s->img, &s->capacity, &frame->t_ns, &frame->index);
+        if (rc == PL_E_EOF) s->eof = true; /* keeps the camera's "gave up" message */
+        if (rc < 0) {
+            if (rc != PL_E_EOF) s->bad++;
+            return rc;
+        }
+        frame->name = s->path;
+        break;
     case SRC_DIR: {
         if (s->next >= s->n_entries) return end_of_source(s);
         const dir_entry *e = &s->entries[s->next];
@@ -276,6 +312,7 @@ const char *pl_source_describe(const pl_source *s)
 int pl_source_fps(const pl_source *s, double *fps)
 {
     if (!s || !fps) return pl_error(PL_E_ARG, "pl_source_fps: NULL argument");
+    if (s->kind == SRC_CAMERA) return pl_v4l2_fps(s->camera, fps);
     if (s->kind != SRC_VIDEO)
         return pl_error(PL_E_UNSUPPORTED, "%s: not a video: no frame rate", pl_source_describe(s));
     return pl_video_fps(s->video, fps);
@@ -291,6 +328,7 @@ void pl_source_close(pl_source *s)
 {
     if (!s) return;
     pl_video_close(s->video);
+    pl_v4l2_close(s->camera);
     for (size_t i = 0; i < s->n_entries; i++)
         free(s->entries[i].name);
     free(s->entries);
