@@ -2,6 +2,8 @@
  * per frame on stdout (docs/OUTPUT.md). Warnings and the closing summary go to stderr. */
 #include <getopt.h>
 #include <math.h>
+#include <signal.h>
+#include <time.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,6 +14,7 @@
 #include "light/lights_json.h"
 #include "light/temporal.h"
 #include "parlight.h"
+#include "port/capture.h"
 #include "port/sink.h"
 #include "port/source.h"
 #include "port/util.h"
@@ -20,7 +23,8 @@ static void help(FILE *f)
 {
     fprintf(f,
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
-            "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n\n"
+            "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
+            "                         [--realtime] [--fps-cap F]\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
@@ -38,7 +42,31 @@ static void help(FILE *f)
             "                  Default: 0.5 for --camera, off for --input (files are often unrelated)\n"
             "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
             "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
-            "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n");
+            "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n"
+            "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
+            "                  frames that arrive while the network is busy are dropped and\n"
+            "                  counted in \"dropped\" (cameras always run this way)\n"
+            "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n\n"
+            "SIGINT or SIGTERM finishes the frame in flight, flushes the outputs and exits 0.\n");
+}
+
+static volatile sig_atomic_t stop_requested;
+
+static void on_stop_signal(int sig)
+{
+    (void)sig;
+    stop_requested = 1;
+}
+
+/* Sleeps until the monotonic time `until_ns`, waking early on a stop request. */
+static void wait_until(int64_t until_ns)
+{
+    while (!stop_requested) {
+        int64_t left = until_ns - pl_now_ns();
+        if (left <= 0) return;
+        struct timespec ts = {0, (long)(left < 50000000 ? left : 50000000)};
+        nanosleep(&ts, NULL);
+    }
 }
 
 static int finite_lighting(const pl_lighting *L)
@@ -55,7 +83,8 @@ static int finite_lighting(const pl_lighting *L)
 
 /* Writes one JSON line for a frame; returns 0, or -1 when the line does not fit (a bug). */
 static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const char *source,
-                       const pl_lighting *L, const pl_timing *tm, double total_ms)
+                       const pl_lighting *L, const pl_timing *tm, double total_ms,
+                       int64_t dropped)
 {
     size_t n = 0;
     int w;
@@ -82,8 +111,8 @@ static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const
     PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[", (double)dir[0],
         (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1], (double)rgb[2]);
     for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)sh[k]);
-    PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f},\"dropped\":0}\n",
-        tm->preprocess_ms, tm->infer_ms, total_ms);
+    PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f},\"dropped\":%lld}\n",
+        tm->preprocess_ms, tm->infer_ms, total_ms, (long long)dropped);
 #undef PUT
     return 0;
 }
@@ -98,15 +127,19 @@ int cmd_estimate(int argc, char **argv)
                                          {"at", required_argument, 0, 'a'},
                                          {"smooth", required_argument, 0, 's'},
                                          {"out", required_argument, 0, 'o'},
+                                         {"realtime", no_argument, 0, 'r'},
+                                         {"fps-cap", required_argument, 0, 'f'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
     int n_frames = 0, threads = 1, have_at = 0, c;
     float at[3] = {0, 0, 0}, alpha = -1.0f;
+    double fps_cap = 0.0;
+    int realtime = 0;
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
@@ -130,6 +163,17 @@ int cmd_estimate(int argc, char **argv)
                 return 2;
             }
             alpha = (float)v;
+            break;
+        }
+        case 'r': realtime = 1; break;
+        case 'f': {
+            char *end;
+            fps_cap = strtod(optarg, &end);
+            if (end == optarg || *end || !(fps_cap > 0.0 && fps_cap <= 1000.0)) {
+                fprintf(stderr, "parlight estimate: --fps-cap '%s': expected frames per second "
+                                "in (0, 1000]\n", optarg);
+                return 2;
+            }
             break;
         }
         case 'o':
@@ -166,6 +210,7 @@ int cmd_estimate(int argc, char **argv)
     pl_model *model = NULL;
     pl_source *src = NULL;
     pl_sinks *sinks = NULL;
+    pl_capture *cap = NULL;
     pl_smoother smoother;
     int rc = 1;
     if (alpha < 0) alpha = camera ? PL_SMOOTH_DEFAULT_ALPHA : 1.0f;
@@ -186,14 +231,37 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
+    /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
+     * newest frame wins and the ones replaced unseen are counted in "dropped" */
+    if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
+        fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+        goto out;
+    }
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_stop_signal; /* no SA_RESTART: a blocking read returns EINTR */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+
     long long done = 0, skipped = 0;
-    int64_t prev_t_ns = 0;
+    int64_t prev_t_ns = 0, last_start = 0;
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
+        if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap));
+        if (stop_requested) break;
         pl_frame fr;
+        int64_t dropped = 0;
+        int st;
+        if (cap) {
+            st = pl_capture_take(cap, &fr, &dropped, 100);
+            if (st == PL_CAPTURE_AGAIN) continue;
+        } else {
+            st = pl_source_read(src, &fr);
+        }
         const int64_t t0 = pl_now_ns();
-        int st = pl_source_read(src, &fr);
+        last_start = t0;
         if (st == PL_E_EOF && camera) { /* a camera only ends when it is lost for good */
             fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
             goto out;
@@ -229,7 +297,8 @@ int cmd_estimate(int argc, char **argv)
             snprintf(source, sizeof source, "%s/%s", desc, fr.name);
         else
             snprintf(source, sizeof source, "%s", desc);
-        if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms) < 0) {
+        if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms,
+                        dropped) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
@@ -244,6 +313,19 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: %s\n", event);
         done++;
     }
+    if (cap) {
+        char last[512];
+        const int64_t bad = pl_capture_bad_frames(cap, last, sizeof last);
+        if (bad) fprintf(stderr, "parlight estimate: warning: %lld bad frame%s skipped, the last: %s\n",
+                         (long long)bad, bad == 1 ? "" : "s", last);
+        skipped += bad;
+    }
+    if (stop_requested) {
+        fprintf(stderr, "parlight estimate: stopped by a signal after %lld frame%s\n", done,
+                done == 1 ? "" : "s");
+        rc = 0;
+        goto out;
+    }
     if (skipped || done == 0)
         fprintf(stderr, "parlight estimate: %lld frame%s estimated, %lld skipped\n", done,
                 done == 1 ? "" : "s", skipped);
@@ -253,6 +335,7 @@ int cmd_estimate(int argc, char **argv)
     }
     rc = 0;
 out:
+    pl_capture_stop(cap);
     pl_sinks_close(sinks);
     pl_source_close(src);
     pl_model_free(model);
