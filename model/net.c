@@ -12,7 +12,11 @@
  * A dense layer reads channels [0, c) of its block buffer and writes its 32 new channels at
  * offset c in place, so concatenation never copies. Transitions run BN+ReLU, then the 2x2 average
  * pool, then the 1x1 convolution (pool and conv commute: 4x less work), writing into the next
- * block's buffer at channel 0. After loading, estimates allocate nothing. */
+ * block's buffer at channel 0. After loading, estimates allocate nothing.
+ *
+ * precision=int8 files pass the same metadata checks and are then handed to the int8 executor
+ * (model/net_s8.c); the public functions delegate to it. pl_model_set_observer
+ * (model/observer.h) reports each layer's output, for calibration and `parlight qcheck`. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -20,17 +24,13 @@
 #include <string.h>
 
 #include "kernels/ref/nn_ref.h"
+#include "model/arch.h"
+#include "model/net_s8.h"
+#include "model/observer.h"
 #include "model/plm.h"
 #include "port/image.h"
 #include "port/threads.h"
 #include "port/util.h"
-
-#define GROWTH 32
-#define BOTTLENECK 128
-#define N_BLOCKS 4
-#define MAX_LAYERS 58
-static const int block_layers[N_BLOCKS] = {6, 12, 24, 16};
-static const int block_c0[N_BLOCKS] = {64, 128, 256, 512};
 
 struct dense_layer {
     int cin;
@@ -63,6 +63,9 @@ struct pl_model {
     int z_len;
     int have_latent;
     pl_pool *pool;
+    pl_s8 *s8; /* int8 models: the int8 executor (model/net_s8.c); the fields above stay unused */
+    pl_layer_observer observer;
+    void *observer_ctx;
 };
 
 /* ---- loading ----------------------------------------------------------------------------- */
@@ -281,9 +284,9 @@ int pl_model_load(const char *path, pl_model **out)
                       f->path, arch ? arch : "(missing)");
         goto fail;
     }
-    if (!prec || strcmp(prec, "fp32")) {
-        rc = pl_error(PL_E_UNSUPPORTED, "%s: precision '%s' not supported by this build (fp32)",
-                      f->path, prec ? prec : "(missing)");
+    if (!prec || (strcmp(prec, "fp32") && strcmp(prec, "int8"))) {
+        rc = pl_error(PL_E_UNSUPPORTED, "%s: precision '%s', expected 'fp32' or 'int8'", f->path,
+                      prec ? prec : "(missing)");
         goto fail;
     }
     snprintf(m->arch, sizeof m->arch, "%s", arch);
@@ -306,9 +309,17 @@ int pl_model_load(const char *path, pl_model **out)
                       m->in_h, m->in_w);
         goto fail;
     }
-    if ((rc = bind_tensors(m)) < 0 || (rc = plan_arena(m)) < 0 ||
-        (rc = pl_pool_create(1, &m->pool)) < 0)
+    if (!strcmp(prec, "int8")) {
+        const pl_net_shape shape = {m->n_lights, m->in_h, m->in_w, m->bands, m->fc_n,
+                                    m->dist_hidden, {m->mean[0], m->mean[1], m->mean[2]},
+                                    {m->std[0], m->std[1], m->std[2]}};
+        if ((rc = pl_s8_load(&m->file, &shape, &m->s8)) < 0) goto fail;
+        m->n_params = pl_s8_params(m->s8);
+        m->arena_floats = (pl_s8_arena_bytes(m->s8) + sizeof(float) - 1) / sizeof(float);
+    } else if ((rc = bind_tensors(m)) < 0 || (rc = plan_arena(m)) < 0) {
         goto fail;
+    }
+    if ((rc = pl_pool_create(1, &m->pool)) < 0) goto fail;
     *out = m;
     return PL_OK;
 fail:
@@ -319,6 +330,7 @@ fail:
 void pl_model_free(pl_model *m)
 {
     if (!m) return;
+    pl_s8_free(m->s8);
     pl_pool_destroy(m->pool);
     free(m->arena);
     pl_plm_close(&m->file);
@@ -357,9 +369,27 @@ int pl_model_last_latent(const pl_model *m, const float **z, int *n)
 {
     if (!m || !z || !n) return pl_error(PL_E_ARG, "pl_model_last_latent: NULL argument");
     if (!m->have_latent) return pl_error(PL_E_ARG, "no estimate has run on this model yet");
+    if (m->s8) {
+        pl_s8_latent(m->s8, z, n);
+        return PL_OK;
+    }
     *z = m->z;
     *n = m->z_len;
     return PL_OK;
+}
+
+int pl_model_set_observer(pl_model *m, pl_layer_observer fn, void *ctx)
+{
+    if (!m) return pl_error(PL_E_ARG, "pl_model_set_observer: model is NULL");
+    if (m->s8) return pl_s8_set_observer(m->s8, fn, ctx);
+    m->observer = fn;
+    m->observer_ctx = ctx;
+    return PL_OK;
+}
+
+const char *pl_model_precision(const pl_model *m)
+{
+    return m ? m->precision : NULL;
 }
 
 /* ---- execution ----------------------------------------------------------------------------- */
@@ -408,6 +438,12 @@ static void fc(pl_model *m, const float *in, int n_in, const float *w, const flo
     pl_pool_for(m->pool, n_out, run_job, &j);
 }
 
+/* Reports a layer's output to the observer (model/observer.h), if one is set. */
+static void observe(const pl_model *m, const char *layer, const float *chw, int c, int h, int w)
+{
+    if (m->observer) m->observer(m->observer_ctx, layer, chw, c, h, w, NULL);
+}
+
 static float softplus(float x)
 {
     return x > 20.0f ? x : log1pf(expf(x)); /* PyTorch's softplus: beta 1, threshold 20 */
@@ -418,6 +454,7 @@ static void forward(pl_model *m)
     int h = m->in_h / 2, w = m->in_w / 2;
     nn_conv_params c0 = {3, m->in_h, m->in_w, 64, h, w, 7, 7, 2, 3, 1};
     conv(m, &c0, m->x_in, m->conv0_w, m->conv0_b, m->buf_a);
+    observe(m, "conv0", m->buf_a, 64, h, w);
 
     nn_pool_params p0 = {64, h, w, h / 2, w / 2, 3, 2, 1};
     h /= 2;
@@ -427,6 +464,7 @@ static void forward(pl_model *m)
     pl_pool_for(m->pool, 64, run_job, &mp);
 
     int li = 0;
+    char name[64];
     for (int b = 0; b < N_BLOCKS; b++) {
         const int hw = h * w;
         for (int l = 0; l < block_layers[b]; l++, li++) {
@@ -436,6 +474,12 @@ static void forward(pl_model *m)
             conv(m, &c1, m->t1, L->c1_w, L->c1_b, m->t2);
             nn_conv_params c2 = {BOTTLENECK, h, w, GROWTH, h, w, 3, 3, 1, 1, 0};
             conv(m, &c2, m->t2, L->c2_w, NULL, cur + (size_t)L->cin * hw);
+            if (m->observer) {
+                snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
+                observe(m, name, m->t2, BOTTLENECK, h, w);
+                snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv2", b + 1, l + 1);
+                observe(m, name, cur + (size_t)L->cin * hw, GROWTH, h, w);
+            }
         }
         if (b < N_BLOCKS - 1) {
             const struct transition *T = &m->trans[b];
@@ -447,6 +491,10 @@ static void forward(pl_model *m)
             w /= 2;
             nn_conv_params tc = {T->cin, h, w, T->cin / 2, h, w, 1, 1, 1, 0, 0};
             conv(m, &tc, m->t2, T->w, NULL, next);
+            if (m->observer) {
+                snprintf(name, sizeof name, "transition%d.conv", b + 1);
+                observe(m, name, next, T->cin / 2, h, w);
+            }
             float *t = cur;
             cur = next;
             next = t;
@@ -454,9 +502,11 @@ static void forward(pl_model *m)
     }
     bn_relu(m, cur, m->n5_scale, m->n5_shift, 1024, h * w, m->t1);
     nn_band_pool_f32__ref(m->t1, 1024, h, w, m->bands, m->z);
+    observe(m, "z", m->z, m->z_len, 1, 1);
 
     const int N = m->n_lights;
     fc(m, m->z, m->z_len, m->fc_w, m->fc_b, m->fc_n, 1, m->h);
+    observe(m, "fc", m->h, m->fc_n, 1, 1);
     fc(m, m->h, m->fc_n, m->dir_w, m->dir_b, 3 * N, 0, m->out_dir);
     fc(m, m->h, m->fc_n, m->size_w, m->size_b, N, 0, m->out_size);
     fc(m, m->h, m->fc_n, m->rgb_w, m->rgb_b, 3 * N, 0, m->out_rgb);
@@ -489,6 +539,16 @@ int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, siz
     if (stride < (size_t)width * 3)
         return pl_error(PL_E_ARG, "frame stride %zu smaller than 3 x width (%d)", stride, width);
     const int64_t t0 = pl_now_ns();
+    if (m->s8) {
+        int64_t t1;
+        pl_s8_estimate(m->s8, m->pool, rgb, width, height, stride, out, &t1);
+        m->have_latent = 1;
+        if (timing) {
+            timing->preprocess_ms = (double)(t1 - t0) / 1e6;
+            timing->infer_ms = (double)(pl_now_ns() - t1) / 1e6;
+        }
+        return PL_OK;
+    }
     int x0, y0, cw, ch;
     pl_crop_to_aspect(width, height, m->in_w, m->in_h, &x0, &y0, &cw, &ch);
     pl_resize_area_rgb8_to_chw(rgb, stride, x0, y0, cw, ch, m->x_in, m->in_w, m->in_h);

@@ -31,3 +31,17 @@ for line in open(sys.argv[1]):
     print(f'{f["source"]:<48} primary dir {fmt(p["dir"])} rgb {fmt(p["rgb"])} '
           f'ambient {fmt(f["ambient"])}  {f["timing_ms"]["infer"]:.0f} ms')
 PY
+
+# the int8 path: quantise the same model on the sample frames and run it (docs/QUANT.md)
+q="$BUILD/demo-int8.plm"
+echo
+echo "== parlight quantize --model $model --calib $frames --method percentile --out $q"
+"$BUILD"/parlight quantize --model "$model" --calib "$frames" --method percentile --out "$q" --force
+"$BUILD"/parlight info --model "$q"
+echo
+echo "== parlight estimate --model $q --input $frames (int8)"
+"$BUILD"/parlight estimate --model "$q" --input "$frames" | tee "$BUILD/demo-int8.jsonl" | cut -c1-160
+echo
+echo "== parlight qcheck --float $model --int8 $q --input tests/data/golden-frames"
+echo "   (checked on other images than the calibration frames)"
+"$BUILD"/parlight qcheck --float "$model" --int8 "$q" --input tests/data/golden-frames --layers 5

@@ -1,0 +1,176 @@
+#!/usr/bin/env bash
+# parlight quantize / qcheck end to end on the seeded model (random weights) and the sample
+# frames: calibrate on tests/data/frames (5 frames), check on tests/data/golden-frames (other
+# images); the int8 file is <= 9 MB, loads, `info` says int8, `estimate` runs, `qcheck --json`
+# parses and meets bounds for random weights (below); then bad inputs, each one clear stderr line
+# and exit 1: broken quantisation parameters in a copy of the int8 file (CRC recomputed so that
+# the loader's own checks are reached), a float model where int8 is expected and the reverse,
+# an empty calibration directory, one without a usable frame.
+#
+# Bounds, for seeded random weights (docs/QUANT.md has the measured figures, which are well
+# inside them): every layer's cosine >= 0.9, conv0's SQNR >= 25 dB, median output relative L2
+# <= 0.8, median direction error <= 30 degrees. The end-to-end figures of a random network on 3
+# frames are noisy (one frame's relative L2 alone ranges 0.2-1.0), the per-layer cosines are the
+# sharp check. A broken folding (wrong sign, scale or clamp)
+# gives cosines far below 0.9 (checked while writing this test: with the clamp direction
+# flipped in quant/fold.c the worst cosine is -0.48 and the direction median 91 deg). Measured
+# here: worst cosine 0.970, direction median 11.0 deg, output relative L2 median 0.25; with only
+# 3 calibration frames the per-channel ranges miss the check frames more often, hence 5.
+set -u
+P="$BUILD/parlight"
+M=build/models/seeded-n3.plm
+T="$PL_TEST_TMP/quantize"
+mkdir -p "$T"
+fail() { echo "FAIL: $*"; exit 1; }
+[ -f "$M" ] || fail "no $M (make test exports it)"
+Q="$T/q.plm"
+
+"$P" quantize --model "$M" --calib tests/data/frames --method minmax \
+    --out "$Q" 2>"$T/qerr" || fail "quantize failed: $(cat "$T/qerr")"
+cat "$T/qerr"
+size=$(stat -c %s "$Q")
+[ "$size" -le 9000000 ] || fail "int8 model is $size bytes, expected <= 9 MB"
+echo "int8 model: $size bytes"
+"$P" info --model "$Q" >"$T/info" || fail "info on the int8 model"
+grep -q "^precision    int8" "$T/info" || fail "info does not say int8: $(cat "$T/info")"
+"$P" estimate --model "$Q" --input tests/data/golden-frames/hall-fixtures.png >"$T/est.jsonl" ||
+    fail "estimate with the int8 model"
+[ "$(wc -l <"$T/est.jsonl")" -eq 1 ] || fail "estimate printed $(wc -l <"$T/est.jsonl") lines"
+"$P" estimate --model "$Q" --input tests/data/golden-frames/hall-fixtures.png --threads 2 \
+    >"$T/est2.jsonl" || fail "estimate with 2 threads"
+cmp -s <(sed 's/"timing_ms".*//' "$T/est.jsonl") <(sed 's/"timing_ms".*//' "$T/est2.jsonl") ||
+    fail "int8 results depend on the thread count"
+
+# --keep-float fc: the FC stays f32 in the file and runs in float
+"$P" quantize --model "$M" --calib tests/data/frames --max-frames 2 --keep-float fc \
+    --out "$T/qfc.plm" 2>/dev/null || fail "quantize --keep-float fc"
+"$P" info --model "$T/qfc.plm" | grep -q "^precision    int8" || fail "info on the fc-float model"
+"$P" estimate --model "$T/qfc.plm" --input tests/data/golden-frames/hall-fixtures.png >/dev/null ||
+    fail "estimate with the fc-float model"
+
+"$P" qcheck --float "$M" --int8 "$Q" --input tests/data/golden-frames --json \
+    >"$T/qc.json" || fail "qcheck failed"
+/usr/bin/python3 - "$T/qc.json" <<'PY' || fail "qcheck JSON or bounds"
+import json, sys
+d = json.load(open(sys.argv[1]))
+for k, sub in (("direction_err_deg", ("median", "p95", "max")), ("envmap_rel_rmse", ("median", "p95")),
+               ("output_rel_l2", ("median", "p95"))):
+    for s in sub:
+        assert isinstance(d[k][s], (int, float)), (k, s)
+layers = {l["name"]: l for l in d["layers"]}
+assert len(layers) == 1 + 2 * 58 + 3 + 2, len(layers)   # conv0, 58 x (conv1, conv2), 3 transitions, z, fc
+sq = [l["sqnr_db"] for l in d["layers"]]
+assert sq == sorted(sq), "layers not worst first"
+assert layers["conv0"]["sqnr_db"] >= 25, layers["conv0"]
+worst = min(l["cosine"] for l in d["layers"])
+assert worst >= 0.9, ("worst cosine", worst)
+assert d["output_rel_l2"]["median"] <= 0.8, d["output_rel_l2"]
+assert d["direction_err_deg"]["median"] <= 30, d["direction_err_deg"]
+print("qcheck: conv0 %.1f dB, worst cosine %.3f, direction median %.2f deg, output rel L2 median %.3f"
+      % (layers["conv0"]["sqnr_db"], worst, d["direction_err_deg"]["median"], d["output_rel_l2"]["median"]))
+PY
+
+# expect_error PATTERN CMD...: exit 1, exactly one stderr line matching PATTERN, no crash
+expect_error() {
+    local pat=$1
+    shift
+    timeout 120 "$@" >"$T/out" 2>"$T/err"
+    local rc=$?
+    [ "$rc" -eq 1 ] || fail "'$*' exited $rc, expected 1; stderr: $(cat "$T/err")"
+    [ "$(wc -l <"$T/err")" -eq 1 ] || fail "'$*' printed $(wc -l <"$T/err") lines: $(cat "$T/err")"
+    grep -qiE -e "$pat" "$T/err" || fail "'$*': '$(cat "$T/err")' does not match '$pat'"
+    echo "ok  $(cat "$T/err")"
+}
+
+# broken quantisation parameters: copy, edit one table field, fix the CRC
+corrupt() { # corrupt OUT TENSOR FIELD VALUE   (FIELD: zero_point | scale0 | elemN: f32 element N)
+    /usr/bin/python3 - "$Q" "$@" <<'PY'
+import struct, sys, zlib
+src, out, name, field, value = sys.argv[1:6]
+b = bytearray(open(src, "rb").read())
+n, table = struct.unpack_from("<I", b, 36)[0], struct.unpack_from("<Q", b, 40)[0]
+for i in range(n):
+    e = table + 128 * i
+    if b[e:e + 64].rstrip(b"\0").decode() == name:
+        break
+else:
+    sys.exit("no tensor " + name)
+if field == "zero_point":
+    struct.pack_into("<i", b, e + 108, int(value))
+else:
+    off = struct.unpack_from("<Q", b, e + 88)[0]
+    idx = 0 if field == "scale0" else int(field[4:])
+    struct.pack_into("<f", b, off + 4 * idx, float(value))
+crc = zlib.crc32(bytes(b[60:]), zlib.crc32(bytes(b[:56])))
+struct.pack_into("<I", b, 56, crc)
+open(out, "wb").write(b)
+PY
+}
+corrupt "$T/zp.plm" denseblock2.denselayer3.conv2.out zero_point 300 || fail "corrupt zp"
+expect_error "zero point \(output offset\) 300" "$P" info --model "$T/zp.plm"
+corrupt "$T/zpc.plm" denseblock2.denselayer3.conv2.out elem33 40000 || fail "corrupt zp"
+expect_error "channel 1 zero point 40000, expected an integer" "$P" info --model "$T/zpc.plm"
+corrupt "$T/zpf.plm" transition2.conv.out elem260 2.5 || fail "corrupt zp"
+expect_error "channel 4 zero point 2.5, expected an integer" "$P" info --model "$T/zpf.plm"
+corrupt "$T/zpr.plm" denseblock1.denselayer2.conv1.out zero_point 0 || fail "corrupt zp"
+expect_error "output offset\) 0, expected -128 \(a ReLU output\)" "$P" info --model "$T/zpr.plm"
+corrupt "$T/scale.plm" transition1.conv.out scale0 -0.5 || fail "corrupt scale"
+expect_error "scale -0.5" "$P" estimate --model "$T/scale.plm" --input tests/data/golden-frames
+corrupt "$T/wscale.plm" fc.wscale scale0 0 || fail "corrupt wscale"
+expect_error "wscale.*expected a finite scale > 0" "$P" info --model "$T/wscale.plm"
+corrupt "$T/clamp.plm" norm5.dequant scale0 1e30 || fail "corrupt dequant"   # loads: float data
+corrupt "$T/req.plm" conv0.out scale0 1e-30 || fail "corrupt requant"
+expect_error "requantisation scale .* out of range" "$P" info --model "$T/req.plm"
+
+# the wrong precision where the other is expected
+expect_error "precision is fp32, expected int8" "$P" qcheck --float "$M" --int8 "$M" --input tests/data/frames
+expect_error "precision is int8, expected fp32" "$P" qcheck --float "$Q" --int8 "$Q" --input tests/data/frames
+expect_error "quantize needs a float" "$P" quantize --model "$Q" --calib tests/data/frames --out "$T/x.plm"
+# calibration input without usable frames
+mkdir -p "$T/empty" "$T/junk"
+echo "not an image" >"$T/junk/a.jpg"
+expect_error "calibration input" "$P" quantize --model "$M" --calib "$T/empty" --out "$T/x.plm"
+timeout 120 "$P" quantize --model "$M" --calib "$T/junk" --out "$T/x.plm" >"$T/out" 2>"$T/err"
+[ $? -eq 1 ] || fail "junk calibration dir accepted"
+tail -n 1 "$T/err" | grep -q "no usable frame" || fail "junk calib: $(cat "$T/err")"
+echo "ok  $(tail -n 1 "$T/err")"
+[ ! -e "$T/x.plm" ] || fail "a failed quantize left $T/x.plm"
+expect_error "keep-float 'denseblock1'" "$P" quantize --model "$M" --calib tests/data/frames --keep-float denseblock1 --out "$T/x.plm"
+
+# random damage with the CRC fixed (so the int8 loader's own checks are what stands between the
+# bytes and the kernels): refused with one line or loaded, never a crash
+/usr/bin/python3 - "$Q" "$T" <<'PY' || fail "making damaged copies"
+import random, struct, sys, zlib
+src, tdir = sys.argv[1:3]
+orig = open(src, "rb").read()
+n, table = struct.unpack_from("<I", orig, 36)[0], struct.unpack_from("<Q", orig, 40)[0]
+rng = random.Random(8)
+for k in range(24):
+    b = bytearray(orig)
+    e = table + 128 * rng.randrange(n)
+    if k % 2:   # a table field: dtype, ndim, dims, scale, zero point
+        pos = e + rng.choice([64, 68, 72, 76, 80, 104, 105, 106, 107, 108, 109, 110, 111])
+    else:       # the start of a tensor's data (scales, clamps, biases, small weights)
+        off = struct.unpack_from("<Q", b, e + 88)[0]
+        pos = off + rng.randrange(8)
+    b[pos] ^= 1 << rng.randrange(8)
+    struct.pack_into("<I", b, 56, zlib.crc32(bytes(b[60:]), zlib.crc32(bytes(b[:56]))))
+    open("%s/dmg%02d.plm" % (tdir, k), "wb").write(b)
+PY
+refused=0
+for f in "$T"/dmg*.plm; do
+    timeout 60 "$P" info --model "$f" >/dev/null 2>"$T/err"
+    rc=$?
+    if [ $rc -eq 0 ]; then # it loads: the damage is in values the kernels take as they are
+        timeout 60 "$P" estimate --model "$f" --input tests/data/golden-frames/hall-fixtures.png \
+            >/dev/null 2>"$T/err"
+        rc=$?
+    fi
+    case $rc in
+        0) ;;
+        1) [ "$(wc -l <"$T/err")" -eq 1 ] || fail "$f: $(cat "$T/err")"; refused=$((refused + 1)) ;;
+        *) fail "$f: exit $rc (crash?): $(cat "$T/err")" ;;
+    esac
+done
+echo "damaged copies: 24, refused $refused, the rest loaded and ran"
+echo "test_quantize: all good"
