@@ -27,6 +27,12 @@ OPENCV_CFLAGS := $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null)
 OPENCV_LIBS   := -lopencv_videoio -lopencv_imgcodecs -lopencv_imgproc -lopencv_core
 EXR_CFLAGS    := $(shell $(PKG_CONFIG) --cflags OpenEXR 2>/dev/null)
 EXR_LIBS      := $(shell $(PKG_CONFIG) --libs OpenEXR 2>/dev/null)
+# libcamera (optional: without it port/source_libcamera.cpp builds stubs that say so)
+LIBCAMERA_CFLAGS := $(shell $(PKG_CONFIG) --cflags libcamera 2>/dev/null)
+LIBCAMERA_LIBS   := $(shell $(PKG_CONFIG) --libs libcamera 2>/dev/null)
+ifneq ($(LIBCAMERA_LIBS),)
+LIBCAMERA_CFLAGS += -DPL_HAVE_LIBCAMERA=1
+endif
 
 WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wmissing-prototypes \
             -Wformat=2 -Wundef
@@ -34,8 +40,8 @@ OPT      ?= -O2 -g
 CPPFLAGS += -Iinclude -I. -D_GNU_SOURCE
 CFLAGS   += -std=c11 $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread
 CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
-            $(OPENCV_CFLAGS) $(EXR_CFLAGS)
-LDLIBS   += $(OPENCV_LIBS) $(EXR_LIBS) -lstdc++ -lm -pthread
+            $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS)
+LDLIBS   += $(OPENCV_LIBS) $(EXR_LIBS) $(LIBCAMERA_LIBS) -lstdc++ -lm -pthread
 
 LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
 LIB_CXX := $(sort $(wildcard port/*.cpp light/*.cpp))
@@ -86,6 +92,11 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
 
+# The camera rig's userspace UVC webcam (tools/camrig/uvc-gadget.c; built by tools/camrig/build.sh)
+$(BUILD)/tools/uvc-gadget: $(BUILD)/obj/tools/camrig/uvc-gadget.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
+
 # The demo runs whatever model is shipped; until a trained one exists it exports one from seeded
 # weights into build/ and says so (tools/demo.sh).
 demo:
@@ -99,7 +110,8 @@ test:
 	@$(MAKE) --no-print-directory all $(SEEDED)
 	@BUILD=$(BUILD) tests/run.sh
 
-# The camera tests alone: pixel conversions and the QEMU + vivid rig (tools/camrig, ~1.5 min).
+# The camera tests alone: pixel conversions, the QEMU + vivid rig and the QEMU + UVC webcam rig
+# (tools/camrig, ~1.5 + 1 min).
 test-camera:
 	@tools/install-deps.sh
 	@$(MAKE) --no-print-directory all $(SEEDED)

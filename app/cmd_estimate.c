@@ -33,6 +33,7 @@ static void help(FILE *f)
             "  --input PATH    image, video or directory\n"
             "  --camera SPEC   a live camera instead: v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]],\n"
             "                  FORMAT yuyv|nv12|rgb24|mjpeg (see parlight cameras, docs/CAMERAS.md)\n"
+            "                  or libcamera[:ID|N] (libcamera's first, N-th or named camera)\n"
             "  --n-frames K    stop after K frames (default: all)\n"
             "  --threads N     worker threads, 1..64 (default 1); results do not depend on N\n"
             "  --at X,Y,Z      report the lighting seen from this point (metres, camera frame)\n"

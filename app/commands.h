@@ -12,7 +12,9 @@
     X(render, "render lights (JSON) to an env map, cube map or sphere image (EXR/HDR/PNG)")        \
     X(compare, "RMSE and scale-invariant RMSE between two lightings (sphere renders)")        \
     X(extract, "ground-truth lights + ambient from an HDR panorama (JSON)")                    \
-    X(crop, "perspective LDR crops of an HDR panorama with their ground-truth lights")
+    X(crop, "perspective LDR crops of an HDR panorama with their ground-truth lights")          \
+    X(quantize, "float model -> int8 model calibrated on frames (minmax/percentile/entropy/mse)")  \
+    X(qcheck, "int8 vs float: per-layer SQNR/cosine and end-to-end light errors")
 
 #define PL_DECLARE(name, summary) int cmd_##name(int argc, char **argv);
 PL_COMMANDS(PL_DECLARE)

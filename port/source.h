@@ -70,11 +70,12 @@ typedef struct pl_source pl_source;
 int pl_source_open_path(const char *path, pl_source **out);
 
 /* Opens a camera from a spec "v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]]" (syntax, formats, timestamps
- * and the reopen policy: port/v4l2.h and docs/CAMERAS.md). Reads then give the driver's
- * CLOCK_MONOTONIC capture time in t_ns and its frame sequence in index; PL_E_DEVICE for each
- * failed attempt to get a lost camera back (the caller warns and reads again), PL_E_EOF once it
- * gives up. describe: "v4l2:<path>". Errors at open: PL_E_ARG (bad spec), PL_E_IO, PL_E_DEVICE,
- * PL_E_UNSUPPORTED, PL_E_NOMEM. */
+ * and the reopen policy: port/v4l2.h and docs/CAMERAS.md) or "libcamera[:ID|N]"
+ * (port/libcamera_src.h; describe "libcamera:<id>", no reopen: disconnect ends the source).
+ * Reads then give the driver's CLOCK_MONOTONIC capture time in t_ns and its frame sequence in
+ * index; PL_E_DEVICE for each failed attempt to get a lost camera back (the caller warns and
+ * reads again), PL_E_EOF once it gives up. describe: "v4l2:<path>". Errors at open: PL_E_ARG
+ * (bad spec), PL_E_IO, PL_E_DEVICE, PL_E_UNSUPPORTED, PL_E_NOMEM. */
 int pl_source_open_camera(const char *spec, pl_source **out);
 
 /* Next frame: PL_OK; PL_E_EOF at the end (and on every later call); or an error for this frame

@@ -11,6 +11,7 @@
 #include <strings.h>
 #include <sys/stat.h>
 
+#include "port/libcamera_src.h"
 #include "port/util.h"
 #include "port/v4l2.h"
 #include "port/video_cv.h"
@@ -39,8 +40,9 @@ struct pl_source {
     /* SRC_VIDEO */
     pl_video *video;
     int64_t video_index;
-    /* SRC_CAMERA (port/source_v4l2.c) */
+    /* SRC_CAMERA (port/source_v4l2.c), or with libcam set port/source_libcamera.cpp */
     pl_v4l2 *camera;
+    pl_libcam *libcam;
 };
 
 static const char *const video_exts[] = {"mp4",  "m4v", "mov",  "avi",  "mkv",  "webm", "mjpeg",
@@ -216,10 +218,30 @@ int pl_source_open_path(const char *path, pl_source **out)
     return PL_OK;
 }
 
+static int open_libcamera(const char *spec, pl_source **out)
+{
+    pl_source *s = calloc(1, sizeof *s);
+    if (!s) return pl_error(PL_E_NOMEM, "%s: out of memory", spec);
+    s->kind = SRC_CAMERA;
+    int rc = pl_libcam_open(spec, &s->libcam);
+    if (rc == PL_OK) {
+        s->desc = dup_str(pl_libcam_describe(s->libcam));
+        s->path = dup_str(s->desc);
+        if (!s->desc || !s->path) rc = pl_error(PL_E_NOMEM, "%s: out of memory", spec);
+    }
+    if (rc < 0) {
+        pl_source_close(s);
+        return rc;
+    }
+    *out = s;
+    return PL_OK;
+}
+
 int pl_source_open_camera(const char *spec, pl_source **out)
 {
     if (!out) return pl_error(PL_E_ARG, "pl_source_open_camera: out is NULL");
     *out = NULL;
+    if (pl_libcam_is_spec(spec)) return open_libcamera(spec, out);
     pl_v4l2_spec vs;
     int rc = pl_v4l2_parse_spec(spec, &vs);
     if (rc < 0) return rc;
@@ -274,7 +296,9 @@ int pl_source_read(pl_source *s, pl_frame *frame)
         break;
     }
     case SRC_CAMERA:
-        rc = pl_v4l2_read(s->camera, &s->img, &s->capacity, &frame->t_ns, &frame->index);
+        rc = s->libcam
+                 ? pl_libcam_read(s->libcam, &s->img, &s->capacity, &frame->t_ns, &frame->index)
+                 : pl_v4l2_read(s->camera, &s->img, &s->capacity, &frame->t_ns, &frame->index);
         if (rc == PL_E_EOF) s->eof = true; /* keeps the camera's "gave up" message */
         if (rc < 0) {
             if (rc != PL_E_EOF) s->bad++;
@@ -312,7 +336,8 @@ const char *pl_source_describe(const pl_source *s)
 int pl_source_fps(const pl_source *s, double *fps)
 {
     if (!s || !fps) return pl_error(PL_E_ARG, "pl_source_fps: NULL argument");
-    if (s->kind == SRC_CAMERA) return pl_v4l2_fps(s->camera, fps);
+    if (s->kind == SRC_CAMERA)
+        return s->libcam ? pl_libcam_fps(s->libcam, fps) : pl_v4l2_fps(s->camera, fps);
     if (s->kind != SRC_VIDEO)
         return pl_error(PL_E_UNSUPPORTED, "%s: not a video: no frame rate", pl_source_describe(s));
     return pl_video_fps(s->video, fps);
@@ -329,6 +354,7 @@ void pl_source_close(pl_source *s)
     if (!s) return;
     pl_video_close(s->video);
     pl_v4l2_close(s->camera);
+    pl_libcam_close(s->libcam);
     for (size_t i = 0; i < s->n_entries; i++)
         free(s->entries[i].name);
     free(s->entries);

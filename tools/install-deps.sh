@@ -9,6 +9,7 @@ PKGS=(
     build-essential pkg-config
     libopencv-dev          # image and video files (port/image_io.cpp)
     libopenexr-dev         # .exr panoramas and maps
+    libcamera-dev          # libcamera camera source (port/source_libcamera.cpp)
     python3-torch python3-torchvision python3-numpy python3-pil   # reference model, exporter, golden tests
     qemu-system-x86 kmod cpio xz-utils   # camera rig VM (tools/camrig; kernel + busybox are apt-get downloaded, not installed)
 )

@@ -3,7 +3,12 @@
 # closure, parlight with its shared libraries, the model and /init (tools/camrig/init.sh).
 #
 #   tools/camrig/build.sh [--build DIR] [--model FILE] [--compress none|gzip] [--share none|9p]
+#                         [--frames DIR]
 #
+# --frames DIR builds the UVC webcam guest instead (outputs in DIR/camrig-uvc/): no vivid but
+# dummy_hcd, gadgetfs and uvcvideo, the userspace webcam tools/camrig/uvc-gadget (built here) with
+# the frames of DIR, the frames as a reader will see them (uvc-gadget --expected) and
+# tools/camrig/init-uvc.sh as /init.
 # --share 9p keeps parlight, its libraries and the model out of the initramfs, in DIR/camrig/share,
 # which run.sh --share 9p exports to the guest read-only over virtio-9p (the 9p modules are added).
 # Debian's kernel and busybox-static are fetched with `apt-get download` into .deps/camrig/debs
@@ -17,13 +22,15 @@ BUILD_DIR=${BUILD:-build}
 MODEL=build/models/seeded-n3.plm
 COMPRESS=none
 SHARE=none
+FRAMES_DIR=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --build) BUILD_DIR=$2; shift 2 ;;
         --model) MODEL=$2; shift 2 ;;
         --compress) COMPRESS=$2; shift 2 ;;
         --share) SHARE=$2; shift 2 ;;
-        -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        --frames) FRAMES_DIR=$2; shift 2 ;;
+        -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "camrig build: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -35,6 +42,13 @@ CACHE=.deps/camrig
 OUT=$BUILD_DIR/camrig
 PARLIGHT=$BUILD_DIR/parlight
 HELPER=$BUILD_DIR/tests/vivid_ctl
+if [ -n "$FRAMES_DIR" ]; then
+    [ -d "$FRAMES_DIR" ] || die "--frames $FRAMES_DIR: not a directory"
+    [ "$SHARE" = none ] || die "--frames works with --share none only"
+    OUT=$BUILD_DIR/camrig-uvc
+    HELPER=$BUILD_DIR/tools/uvc-gadget
+    make -s BUILD="$BUILD_DIR" "$HELPER" >&2 || die "cannot build $HELPER"
+fi
 [ -x "$PARLIGHT" ] || die "$PARLIGHT not built (make BUILD=$BUILD_DIR all)"
 [ -x "$HELPER" ] || die "$HELPER not built (make BUILD=$BUILD_DIR all)"
 [ -f "$MODEL" ] || die "model $MODEL missing (make $MODEL)"
@@ -111,6 +125,7 @@ done
 # insmod lines for /init.
 MODS=vivid
 [ "$SHARE" = 9p ] && MODS="virtio_pci 9pnet_virtio 9p vivid"
+[ -n "$FRAMES_DIR" ] && MODS="dummy_hcd gadgetfs uvcvideo"
 : >"$STAGE/modules.list"
 for m in $MODS; do
     modprobe -d "$KROOT" -S "$KVER" --show-depends "$m" | while read -r kw path rest; do
@@ -121,7 +136,7 @@ for m in $MODS; do
         grep -qxF "$rel" "$STAGE/modules.list" || echo "$rel" >>"$STAGE/modules.list"
     done
 done
-[ -s "$STAGE/modules.list" ] || die "modprobe found no vivid module in $KROOT"
+[ -s "$STAGE/modules.list" ] || die "modprobe found no $MODS module in $KROOT"
 
 # parlight, the rig's helper and every shared library they load (ldd), at their host paths, into
 # the initramfs or the 9p share (PAYLOAD).
@@ -134,7 +149,15 @@ if [ "$SHARE" = 9p ]; then
 fi
 mkdir -p "$PAYLOAD/opt/parlight"
 cp "$PARLIGHT" "$PAYLOAD/opt/parlight/parlight"
-cp "$HELPER" "$PAYLOAD/opt/parlight/vivid_ctl"
+if [ -n "$FRAMES_DIR" ]; then
+    cp "$HELPER" "$PAYLOAD/opt/parlight/uvc-gadget"
+    mkdir -p "$PAYLOAD/opt/parlight/frames" "$PAYLOAD/opt/parlight/expected"
+    find "$FRAMES_DIR" -maxdepth 1 -type f ! -name '.*' -exec cp {} "$PAYLOAD/opt/parlight/frames/" \;
+    "$HELPER" --expected "$PAYLOAD/opt/parlight/expected" "$PAYLOAD/opt/parlight/frames" ||
+        die "uvc-gadget --expected failed on $FRAMES_DIR"
+else
+    cp "$HELPER" "$PAYLOAD/opt/parlight/vivid_ctl"
+fi
 for bin in "$PARLIGHT" "$HELPER"; do
     ldd "$bin" | awk '$2 == "=>" && $3 ~ /^\// {print $3} $1 ~ /^\// {print $1}'
 done | sort -u | while read -r lib; do
@@ -146,7 +169,11 @@ sort -u "$PAYLOAD/ldpath.tmp" | grep -v '^/lib64$' >"$PAYLOAD/ldpath"
 rm -f "$PAYLOAD/ldpath.tmp"
 [ -e "$PAYLOAD/lib64/ld-linux-x86-64.so.2" ] || die "dynamic loader not found by ldd"
 cp "$MODEL" "$PAYLOAD/opt/parlight/model.plm"
-cp tools/camrig/init.sh "$STAGE/init"
+if [ -n "$FRAMES_DIR" ]; then
+    cp tools/camrig/init-uvc.sh "$STAGE/init"
+else
+    cp tools/camrig/init.sh "$STAGE/init"
+fi
 chmod 755 "$STAGE/init"
 
 CPIO=$OUT/initramfs.cpio

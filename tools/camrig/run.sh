@@ -7,8 +7,17 @@
 #                       [--suite basic|full] [--build DIR] [--results FILE] [--timeout S]
 #                       [--accel tcg|kvm] [--smp N] [--compress none|gzip] [--share none|9p]
 #                       [--no-build]
+#   tools/camrig/run.sh --frames DIR --backend v4l2|libcamera|both [--n-frames N] [...]
 #
 #   --frames N     frames to estimate (default 3)
+#   --frames DIR   the UVC webcam instead of vivid: tools/camrig/uvc-gadget streams DIR's images
+#                  (one size, even width) as YUYV (and MJPEG when they are JPEGs) over USB
+#                  (dummy_hcd + gadgetfs), uvcvideo binds it, parlight estimates N frames
+#                  (--n-frames, default 2) through the backend(s) (v4l2: YUYV, then MJPEG if
+#                  offered), then the same frames read as files ("source" "dir:..."): the YUYV
+#                  round trip of DIR and (v4l2) DIR's JPEGs. Build outputs in BUILD/camrig-uvc;
+#                  env CAMRIG_LIBCAMERA_LOG=LEVELS sets LIBCAMERA_LOG_LEVELS in the guest,
+#                  CAMRIG_RACE_DELAY_US=N uvc-gadget's --race-delay-us (a test aid)
 #   --suite full   also the error cases and an unplug mid-stream (tests/test_camera_vivid.sh)
 #   --results FILE keep the guest's result stream there (protocol: tools/camrig/init.sh)
 #   --timeout S    wall-clock limit for the whole VM run (default 200)
@@ -25,11 +34,12 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 
 BACKEND="" FRAMES=3 PRECISION=fp32 MODEL="" SUITE=basic BUILD_DIR=${BUILD:-build}
-RESULTS="" TIMEOUT=200 ACCEL=tcg COMPRESS=none DO_BUILD=1 SMP=2 SHARE=none
+RESULTS="" TIMEOUT=200 ACCEL=tcg COMPRESS=none DO_BUILD=1 SMP=2 SHARE=none N_FRAMES=2 UVC_DIR=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --backend) BACKEND=$2; shift 2 ;;
         --frames) FRAMES=$2; shift 2 ;;
+        --n-frames) N_FRAMES=$2; shift 2 ;;
         --precision) PRECISION=$2; shift 2 ;;
         --model) MODEL=$2; shift 2 ;;
         --suite) SUITE=$2; shift 2 ;;
@@ -41,12 +51,19 @@ while [ $# -gt 0 ]; do
         --compress) COMPRESS=$2; shift 2 ;;
         --share) SHARE=$2; shift 2 ;;
         --no-build) DO_BUILD=0; shift ;;
-        -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "camrig: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
 usage() { echo "camrig: $*" >&2; exit 2; }
-[ "$BACKEND" = v4l2 ] || usage "--backend v4l2 is required (the only backend so far)"
+if [ -d "$FRAMES" ]; then
+    UVC_DIR=$FRAMES
+    FRAMES=$N_FRAMES
+    case "$BACKEND" in v4l2|libcamera|both) ;; *) usage "--backend v4l2|libcamera|both is required" ;; esac
+    [ "$SHARE" = none ] || usage "--frames DIR works with --share none only"
+else
+    [ "$BACKEND" = v4l2 ] || usage "--backend v4l2 is required for vivid (libcamera: with --frames DIR)"
+fi
 [[ "$FRAMES" =~ ^[1-9][0-9]{0,3}$ ]] || usage "--frames: expected 1..9999, got '$FRAMES'"
 [[ "$TIMEOUT" =~ ^[1-9][0-9]{0,3}$ ]] || usage "--timeout: expected seconds, got '$TIMEOUT'"
 [[ "$SMP" =~ ^[1-8]$ ]] || usage "--smp: expected 1..8, got '$SMP'"
@@ -66,9 +83,14 @@ command -v qemu-system-x86_64 >/dev/null 2>&1 || {
     exit 3
 }
 OUT=$BUILD_DIR/camrig
+UVC_ARGS=()
+if [ -n "$UVC_DIR" ]; then
+    OUT=$BUILD_DIR/camrig-uvc
+    UVC_ARGS=(--frames "$UVC_DIR")
+fi
 if [ $DO_BUILD = 1 ]; then
     tools/camrig/build.sh --build "$BUILD_DIR" --model "$MODEL" --compress "$COMPRESS" \
-        --share "$SHARE" >/dev/null
+        --share "$SHARE" "${UVC_ARGS[@]}" >/dev/null
 fi
 VMLINUX=$OUT/vmlinux
 INITRD=$OUT/initramfs.cpio
@@ -95,7 +117,7 @@ while IFS= read -r line; do
     line=${line%$'\r'}
     printf '%s\n' "$line" >>"$RES"
     case "$line" in
-        "@@BEGIN estimate") in_est=1 ;;
+        "@@BEGIN estimate"*) in_est=1 ;;
         "@@END "*) in_est=0 ;;
         "O {"*) if [ "${in_est:-0}" = 1 ]; then
                     last_json_ms=$((($(date +%s%N) - start) / 1000000))
@@ -106,7 +128,7 @@ while IFS= read -r line; do
 done < <(set +e; timeout -k 5 "$TIMEOUT" qemu-system-x86_64 -accel "$ACCEL" -cpu "$CPU" -smp "$SMP" -m 1536 \
     -nodefaults -no-user-config -display none -no-reboot \
     -kernel "$VMLINUX" -initrd "$INITRD" "${SHARE_ARGS[@]}" \
-    -append "console=ttyS0 quiet loglevel=3 panic=-1 camrig.frames=$FRAMES camrig.suite=$SUITE camrig.threads=$SMP" \
+    -append "console=ttyS0 quiet loglevel=3 panic=-1 camrig.frames=$FRAMES camrig.suite=$SUITE camrig.threads=$SMP camrig.backend=$BACKEND${CAMRIG_LIBCAMERA_LOG:+ camrig.libcamera_log=$CAMRIG_LIBCAMERA_LOG}${CAMRIG_RACE_DELAY_US:+ camrig.race_delay_us=$CAMRIG_RACE_DELAY_US}" \
     -serial "file:$CONSOLE" -serial stdio </dev/null 2>"$QERR"; echo "@@QEMU $?")
 wall_ms=$((($(date +%s%N) - start) / 1000000))
 [ -n "$RESULTS" ] && cp "$RES" "$RESULTS"
@@ -125,11 +147,11 @@ if ! grep -q '^@@UPTIME init' "$RES"; then
 fi
 
 # JSON lines of the estimate step on stdout; everything else on stderr.
-awk '/^@@BEGIN estimate$/ {on=1; next} /^@@END / {on=0} on && /^O / {print substr($0, 3)}' "$RES"
+awk '/^@@BEGIN estimate/ {on=1; next} /^@@END / {on=0} on && /^O / {print substr($0, 3)}' "$RES"
 # (the cameras listing shortened to its device lines and usable formats: vivid offers 83 formats)
 awk '/^@@BEGIN / {name=$2} /^@@END / {name=""}
     name == "cameras" && /^O / && !/^O \/dev|usable/ {next}
-    name != "estimate" && /^[OE] / || name == "estimate" && /^E / {print "  [" name "] " substr($0, 3)}' "$RES" >&2
+    name !~ /^estimate/ && /^[OE] / || name ~ /^estimate/ && /^E / {print "  [" name "] " substr($0, 3)}' "$RES" >&2
 guest_rc=$(sed -n 's/^@@EXIT //p' "$RES" | tail -n 1)
 up() { sed -n "s/^@@UPTIME $1 //p" "$RES" | tail -n 1; }
 host_fps=n/a
@@ -144,7 +166,13 @@ fps=$(awk '/^@@BEGIN estimate$/ {on=1; next} /^@@END / {on=0}
     echo "camrig: accel $ACCEL, initramfs $(stat -c %s "$INITRD") bytes ($COMPRESS), share $SHARE, wall ${wall_ms} ms"
     line="camrig: guest uptime: /init at $(up init) s"
     [ "$SHARE" = 9p ] && line+=", 9p share mounted at $(up share) s"
-    line+=", vivid loaded at $(up vivid) s"
+    if [ -n "$UVC_DIR" ]; then
+        line+=", gadgetfs at $(up gadgetfs) s, uvcvideo's /dev/video0 at $(up uvc) s"
+        [ "$BACKEND" = libcamera ] || line+=", v4l2 estimate done at $(up v4l2) s"
+        [ "$BACKEND" = v4l2 ] || line+=", libcamera estimate done at $(up libcamera) s"
+    else
+        line+=", vivid loaded at $(up vivid) s"
+    fi
     [ "$SUITE" = full ] && line+=", full checks done at $(up checks) s"
     echo "$line, all done at $(up done) s"
     echo "camrig: boot to first JSON line ${first_json_ms:-n/a} ms (host wall); ${n_json:-0} JSON lines, ${host_fps} frames/s through the rig (host arrival times), ${fps} frames/s by the frames' driver timestamps"

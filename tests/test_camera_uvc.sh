@@ -1,0 +1,152 @@
+#!/usr/bin/env bash
+# A USB webcam made of files, read through the real uvcvideo driver: boots the camera rig's UVC
+# guest once (tools/camrig/run.sh --frames DIR --backend both: dummy_hcd + gadgetfs +
+# tools/camrig/uvc-gadget streaming two of tests/data/frames as YUYV over a bulk endpoint) and
+# checks, from the guest's results,
+#  - `parlight cameras` lists uvcvideo's /dev/video0 (UVC Camera 1d6b:0102) with YUYV usable;
+#  - `parlight estimate --camera v4l2:/dev/video0 --n-frames 2` (YUYV), the same with
+#    `:640x480:mjpeg`, and `parlight estimate --camera libcamera --n-frames 2` (libcamera's UVC
+#    pipeline, YUYV, with the udev-less workarounds of init-uvc.sh): two JSON lines each, driver
+#    CLOCK_MONOTONIC t_ns and frame indices increasing, and every frame's lights, ambient and sh9
+#    IDENTICAL (bit for bit as printed) to those of `parlight estimate --input` on one of the
+#    frames read as files: after the same RGB -> YUYV -> RGB round trip (uvc-gadget --expected)
+#    for YUYV, the JPEG files themselves for MJPEG (the device sends their bytes), and the frame-index distance
+#    of the two camera frames agrees with the distance of the files they matched (the device
+#    sends the files in order, one per sequence number);
+#  - the libcamera camera ID is built from the controller's firmware node and the USB IDs;
+#    an unknown ID and an index out of range are refused with clear messages (and, on the host,
+#    an empty ID and a spec that is not libcamera's).
+# A small seeded model (96x128 input, tools/export.py) keeps the TCG guest's estimates short.
+# Skips (77) when the VM cannot start (no qemu, kernel not downloadable) or the model cannot be
+# exported (no torch). About 50-70 s here.
+set -u
+cd "$(dirname "$0")/.."
+BUILD=${BUILD:-build}
+T="${PL_TEST_TMP:-$(mktemp -d)}/camera_uvc"
+rm -rf "$T"
+mkdir -p "$T/frames"
+fail() { echo "FAIL: $*"; exit 1; }
+skip() { echo "SKIP: $*"; exit 77; }
+[ -x "$BUILD/parlight" ] || fail "no $BUILD/parlight (make all)"
+command -v qemu-system-x86_64 >/dev/null 2>&1 ||
+    skip "qemu-system-x86_64 not installed: the camera VM cannot start (tools/install-deps.sh installs qemu-system-x86)"
+M=$BUILD/models/seeded-n3-96x128.plm
+if [ ! -f "$M" ]; then
+    mkdir -p "$BUILD/models"
+    /usr/bin/python3 tools/export.py --n-lights 3 --seed 1 --input 96x128 --out "$M.tmp" --force \
+        >"$T/export.log" 2>&1 || skip "cannot export the small model (torch?): $(tail -n 1 "$T/export.log")"
+    mv "$M.tmp" "$M"
+fi
+cp tests/data/frames/lab-lamps.jpg tests/data/frames/warehouse-tubes.jpg "$T/frames/"
+
+# the spec checks that need no camera, on the host
+out=$("$BUILD/parlight" estimate --model "$M" --camera libcamera: 2>&1)
+[ $? -eq 1 ] && grep -q "empty camera ID after ':' (expected libcamera\[:ID|N\])" <<<"$out" ||
+    fail "--camera libcamera: gave: $out"
+out=$("$BUILD/parlight" estimate --model "$M" --camera libcamerax 2>&1)
+[ $? -eq 1 ] || fail "--camera libcamerax was accepted: $out"
+
+start=$(date +%s%N)
+tools/camrig/run.sh --frames "$T/frames" --backend both --n-frames 2 --build "$BUILD" \
+    --model "$M" --timeout 170 --results "$T/results.txt" >"$T/json.txt" 2>"$T/log.txt"
+rc=$?
+cat "$T/log.txt"
+if [ $rc -ne 0 ] && grep -q "apt-get download\|cannot resolve" "$T/log.txt"; then
+    skip "the camera VM cannot start: Debian's kernel could not be downloaded"
+fi
+[ $rc -eq 3 ] && skip "the camera VM did not start: $(grep -m1 'did not start' "$T/log.txt")"
+[ $rc -eq 0 ] || fail "the rig exited $rc (console: $BUILD/camrig-uvc/console.log)"
+secs=$(( ($(date +%s%N) - start) / 1000000000 ))
+
+/usr/bin/python3 - "$T/results.txt" <<'PYEOF' || fail "checks on the guest's results failed (above)"
+import json, math, sys
+
+steps, cur, rcs = {}, None, {}
+for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
+    line = line.rstrip("\n")
+    if line.startswith("@@BEGIN "):
+        cur = line.split()[1]
+        steps[cur] = {"O": [], "E": []}
+    elif line.startswith("@@END "):
+        _, name, rc = line.split()
+        rcs[name] = int(rc)
+        cur = None
+    elif cur and line[:2] in ("O ", "E "):
+        steps[cur][line[0]].append(line[2:])
+bad = []
+def check(cond, msg):
+    if not cond:
+        bad.append(msg)
+
+cams = steps.get("cameras", {"O": [], "E": []})
+check(rcs.get("cameras") == 0, f"cameras exited {rcs.get('cameras')}: {cams['E']}")
+check(any(l.startswith("/dev/video0: UVC Camera (1d6b:0102) (driver uvcvideo") for l in cams["O"]),
+      f"cameras: no uvcvideo /dev/video0: {cams['O'][:3]}")
+check(any("YUYV" in l and "usable" in l for l in cams["O"]), "cameras: YUYV not usable")
+
+def parse(step):
+    objs = []
+    for l in steps.get(step, {"O": []})["O"]:
+        try:
+            objs.append(json.loads(l))
+        except ValueError as e:
+            bad.append(f"{step}: not JSON ({e}): {l[:80]}")
+    return objs
+
+def key(o):
+    return json.dumps([o.get("lights"), o.get("ambient"), o.get("sh9")])
+
+refs = {}
+for fstep in ("estimate-files", "estimate-files-jpeg"):
+    files = parse(fstep)
+    check(rcs.get(fstep) == 0, f"{fstep} exited {rcs.get(fstep)}")
+    check(len(files) == 2, f"{fstep}: {len(files)} JSON lines, expected 2")
+    ref = {key(o): i for i, o in enumerate(files)}
+    check(len(ref) == len(files), f"{fstep}: the two files gave the same lights (must differ)")
+    refs[fstep] = (files, ref)
+
+for step, prefix, fstep in (("estimate-v4l2", "v4l2:/dev/video0", "estimate-files"),
+                            ("estimate-v4l2-mjpeg", "v4l2:/dev/video0", "estimate-files-jpeg"),
+                            ("estimate-libcamera", "libcamera:", "estimate-files")):
+    files, ref = refs[fstep]
+    objs = parse(step)
+    check(rcs.get(step) == 0, f"{step} exited {rcs.get(step)}: {steps.get(step, {}).get('E')}")
+    check(len(objs) == 2, f"{step}: {len(objs)} JSON lines, expected 2")
+    matched = []
+    for o in objs:
+        check(o.get("source", "").startswith(prefix), f"{step}: source {o.get('source')!r}")
+        check(isinstance(o.get("t_ns"), int) and 1e9 < o["t_ns"] < 900e9,
+              f"{step}: t_ns {o.get('t_ns')!r} is not a CLOCK_MONOTONIC time of the guest")
+        L = o.get("lights", [])
+        check(len(L) == 3 and all(math.isfinite(v) for l in L for v in l["dir"] + l["rgb"]),
+              f"{step}: lights {L}")
+        i = ref.get(key(o))
+        check(i is not None, f"{step}: frame {o.get('frame')}: lights differ from every file's "
+              f"(camera {o.get('lights')} vs files {[f.get('lights') for f in files]})")
+        matched.append(i)
+    if len(objs) == 2 and None not in matched:
+        a, b = objs
+        check(b["frame"] > a["frame"] and b["t_ns"] > a["t_ns"],
+              f"{step}: frame/t_ns not increasing: {a['frame']},{a['t_ns']} {b['frame']},{b['t_ns']}")
+        n = len(files)
+        check((b["frame"] - a["frame"]) % n == (matched[1] - matched[0]) % n,
+              f"{step}: frames {a['frame']}, {b['frame']} matched files {matched}: "
+              "the sequence numbers do not follow the files")
+        print(f"{step}: frames {a['frame']}, {b['frame']} identical to files "
+              f"{[files[m]['source'].split('/')[-1] for m in matched]}")
+    if step == "estimate-libcamera" and objs:
+        sid = objs[0].get("source", "")
+        check("-1:1.0-1d6b:0102" in sid and "DUMMY" in sid, f"libcamera camera ID {sid!r}")
+
+# libcamera's errors with a real camera present
+for step, want in (("libcamera-bad-id", "no libcamera camera with ID 'nope' (have: "),
+                   ("libcamera-bad-index", "camera index 3 out of range (libcamera has 1)")):
+    e = steps.get(step, {"E": []})["E"]
+    check(rcs.get(step) == 1, f"{step} exited {rcs.get(step)}, expected 1")
+    check(any(want in l for l in e), f"{step}: expected '{want}' in {e}")
+
+for b in bad:
+    print("FAIL:", b)
+sys.exit(1 if bad else 0)
+PYEOF
+echo "UVC camera rig checks passed in ${secs} s"
