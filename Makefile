@@ -44,6 +44,25 @@ CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
 LDLIBS   += $(OPENCV_LIBS) $(EXR_LIBS) $(LIBCAMERA_LIBS) -lstdc++ -lm -pthread
 
 LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
+
+# SIMD kernels: kernels/x86/ joins x86-64 builds, kernels/arm/ AArch64 builds. A file's ISA
+# flags come from its name (nn_conv1x1_s8__avx512vnni.c): the build stays portable and
+# kernels/isa.c picks the path at run time.
+TARGET_ARCH_NAME := $(shell $(CC) -dumpmachine)
+ifneq ($(findstring x86_64,$(TARGET_ARCH_NAME)),)
+LIB_C += $(sort $(wildcard kernels/x86/*.c))
+endif
+ifneq ($(findstring aarch64,$(TARGET_ARCH_NAME)),)
+LIB_C += $(sort $(wildcard kernels/arm/*.c))
+endif
+ISA_FLAGS_avx2       := -mavx2 -mfma -mf16c
+ISA_FLAGS_avxvnni    := $(ISA_FLAGS_avx2) -mavxvnni
+ISA_FLAGS_avx512vnni := $(ISA_FLAGS_avx2) -mavx512f -mavx512bw -mavx512dq -mavx512vl -mavx512vnni
+ISA_FLAGS_amx        := $(ISA_FLAGS_avx512vnni) -mamx-tile -mamx-int8
+ISA_FLAGS_neon       :=
+ISA_FLAGS_dotprod    := -march=armv8.2-a+dotprod
+ISA_FLAGS_i8mm       := -march=armv8.6-a+dotprod+i8mm
+isa_of = $(lastword $(subst __, ,$(basename $(notdir $(1)))))
 LIB_CXX := $(sort $(wildcard port/*.cpp light/*.cpp))
 APP_C   := $(sort $(wildcard app/*.c))
 TEST_C  := $(sort $(wildcard tests/*.c))
@@ -74,7 +93,7 @@ $(BUILD)/obj/kernels/%.o: OPT := -O3 -g
 
 $(BUILD)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
-	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+	$(CC) $(CPPFLAGS) $(CFLAGS) $(ISA_FLAGS_$(call isa_of,$<)) -MMD -MP -c $< -o $@
 
 $(BUILD)/obj/%.o: %.cpp
 	@mkdir -p $(dir $@)
