@@ -10,6 +10,7 @@
 # file in model/, kernels/, quant/, light/ or port/ joins the library without editing this file;
 # tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
 
+.DEFAULT_GOAL := all
 BOARD ?= host
 ifeq ($(wildcard boards/$(BOARD).mk),)
 $(error unknown BOARD '$(BOARD)': no boards/$(BOARD).mk (have: $(basename $(notdir $(wildcard boards/*.mk)))))
@@ -75,7 +76,11 @@ CLI      := $(BUILD)/parlight
 
 # Models exported from seeded random weights (tools/export.py), for the tests and, until a
 # trained model ships, the demo. Board-independent, so they live in build/models/.
-SEEDED := build/models/seeded-n3.plm
+# The camera rig's guests run a 96x128 one: the same network, 4x fewer MACs under TCG.
+SEEDED := build/models/seeded-n3.plm build/models/seeded-n3-96x128.plm
+build/models/seeded-n3-96x128.plm: tools/export.py tools/model.py tools/plm.py
+	@mkdir -p $(dir $@)
+	/usr/bin/python3 tools/export.py --n-lights 3 --seed 1 --input 96x128 --out $@ --force
 build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 	@mkdir -p $(dir $@)
 	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force

@@ -1,4 +1,5 @@
-/* parlight cameras: the V4L2 capture devices with their formats, frame sizes and rates. */
+/* parlight cameras: the V4L2 capture devices with their formats, frame sizes and rates, and the
+ * cameras libcamera sees. */
 #include <dirent.h>
 #include <getopt.h>
 #include <stdint.h>
@@ -9,6 +10,7 @@
 #include "app/commands.h"
 #include "app/cli.h"
 #include "parlight.h"
+#include "port/libcamera_src.h"
 #include "port/util.h"
 #include "port/v4l2.h"
 
@@ -22,10 +24,13 @@ static void help(FILE *f)
             "reads (YUYV, NV12, RGB24, MJPEG) are marked 'usable'; use one with\n"
             "  parlight estimate --camera v4l2:/dev/videoN[:WxH[@FPS][:yuyv|nv12|rgb24|mjpeg]]\n"
             "Nodes that are not capture devices (outputs, metadata, VBI) are named and skipped.\n"
-            "Exit status: 0 when at least one capture device was listed, 1 otherwise.\n\n"
+            "Then the cameras libcamera sees, for --camera libcamera[:ID|N] (a UVC camera\n"
+            "appears in both lists).\n"
+            "Exit status: 0 when at least one camera was listed, 1 otherwise.\n\n"
             "  --device PATH   list only this device node\n"
             "  --grab SPEC     capture from a camera without a model, to check it: opens SPEC\n"
-            "                  (v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]]), reads N frames (default\n"
+            "                  (v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]] or libcamera[:ID|N]), reads\n"
+            "                  N frames (default\n"
             "                  10) and prints one line per frame (index, driver time, size, mean\n"
             "                  R G B after conversion) and the frame rate; exit 0 when all N came\n"
             "  --frames N      frames to grab, 1..100000\n");
@@ -74,32 +79,20 @@ static void print_device(const pl_v4l2_device_info *d)
     }
 }
 
-/* --grab: reads n frames through the V4L2 source; bad frames and lost-device attempts are warned
- * about and counted, as parlight estimate does. */
-static int grab(const char *spec, int n)
+typedef int (*read_fn)(void *cam, pl_image_u8 *img, size_t *capacity, int64_t *t_ns,
+                       int64_t *index);
+
+/* Reads n frames, printing one line each; bad frames and lost-device attempts are warned about
+ * and counted, as parlight estimate does. Returns the exit status. */
+static int grab_frames(void *cam, read_fn read, int n)
 {
-    pl_v4l2_spec vs;
-    pl_v4l2 *cam = NULL;
-    if (pl_v4l2_parse_spec(spec, &vs) < 0 || pl_v4l2_open(&vs, &cam) < 0) {
-        fprintf(stderr, "parlight cameras: %s\n", pl_last_error());
-        return 1;
-    }
-    int w, h;
-    uint32_t fourcc;
-    const char *coding;
-    char fcc[5];
-    double fps = 0;
-    pl_v4l2_format(cam, &w, &h, &fourcc, &coding);
-    (void)pl_v4l2_fps(cam, &fps);
-    printf("%s: %dx%d %s, %s, %.4g fps nominal\n", pl_v4l2_describe(cam), w, h,
-           pl_v4l2_fourcc_str(fourcc, fcc), coding, fps);
     pl_image_u8 img = {0, 0, 0, NULL};
     size_t cap = 0;
     int got = 0, failed = 0, rc = 0;
     int64_t t_first = 0, t_last = 0;
     while (got < n) {
         int64_t t_ns, index;
-        int st = pl_v4l2_read(cam, &img, &cap, &t_ns, &index);
+        int st = read(cam, &img, &cap, &t_ns, &index);
         if (st == PL_E_EOF) {
             fprintf(stderr, "parlight cameras: %s\n", pl_last_error());
             rc = 1;
@@ -132,8 +125,70 @@ static int grab(const char *spec, int n)
         printf("%d frames, %d failed reads\n", got, failed);
     fflush(stdout);
     pl_image_u8_free(&img);
+    return rc;
+}
+
+static int read_v4l2(void *cam, pl_image_u8 *img, size_t *capacity, int64_t *t_ns, int64_t *index)
+{
+    return pl_v4l2_read(cam, img, capacity, t_ns, index);
+}
+
+static int read_libcam(void *cam, pl_image_u8 *img, size_t *capacity, int64_t *t_ns,
+                       int64_t *index)
+{
+    return pl_libcam_read(cam, img, capacity, t_ns, index);
+}
+
+/* --grab: a camera without a model. */
+static int grab(const char *spec, int n)
+{
+    if (pl_libcam_is_spec(spec)) {
+        pl_libcam *cam = NULL;
+        if (pl_libcam_open(spec, &cam) < 0) {
+            fprintf(stderr, "parlight cameras: %s\n", pl_last_error());
+            return 1;
+        }
+        printf("%s\n", pl_libcam_describe(cam));
+        int rc = grab_frames(cam, read_libcam, n);
+        pl_libcam_close(cam);
+        return rc;
+    }
+    pl_v4l2_spec vs;
+    pl_v4l2 *cam = NULL;
+    if (pl_v4l2_parse_spec(spec, &vs) < 0 || pl_v4l2_open(&vs, &cam) < 0) {
+        fprintf(stderr, "parlight cameras: %s\n", pl_last_error());
+        return 1;
+    }
+    int w, h;
+    uint32_t fourcc;
+    const char *coding;
+    char fcc[5];
+    double fps = 0;
+    pl_v4l2_format(cam, &w, &h, &fourcc, &coding);
+    (void)pl_v4l2_fps(cam, &fps);
+    printf("%s: %dx%d %s, %s, %.4g fps nominal\n", pl_v4l2_describe(cam), w, h,
+           pl_v4l2_fourcc_str(fourcc, fcc), coding, fps);
+    int rc = grab_frames(cam, read_v4l2, n);
     pl_v4l2_close(cam);
     return rc;
+}
+
+/* The cameras libcamera sees; returns how many (0 when none or libcamera is unavailable). */
+static int list_libcamera(void)
+{
+    char buf[4096];
+    int count = 0;
+    if (pl_libcam_list(buf, sizeof buf, &count) < 0) {
+        printf("libcamera: %s\n", pl_last_error());
+        return 0;
+    }
+    if (!count) {
+        printf("libcamera: no cameras\n");
+        return 0;
+    }
+    printf("libcamera: %d camera%s\n%s", count, count == 1 ? "" : "s", buf);
+    if (buf[0] && buf[strlen(buf) - 1] != '\n') printf("\n");
+    return count;
 }
 
 /* Lists one node; returns 1 when it was a capture device, 0 when skipped, -1 on error. */
@@ -238,9 +293,11 @@ int cmd_cameras(int argc, char **argv)
         snprintf(path, sizeof path, "/dev/video%d", nums[i]);
         if (list_one(path) == 1) found++;
     }
+    if (!found)
+        printf("V4L2: no capture device%s\n", n ? "" : " (no /dev/video* node)");
+    found += list_libcamera();
     if (!found) {
-        fprintf(stderr, "parlight cameras: no V4L2 capture device found%s\n",
-                n ? "" : " (no /dev/video* node)");
+        fprintf(stderr, "parlight cameras: no camera found\n");
         return 1;
     }
     return 0;

@@ -85,7 +85,7 @@ static int finite_lighting(const pl_lighting *L)
 /* Writes one JSON line for a frame; returns 0, or -1 when the line does not fit (a bug). */
 static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const char *source,
                        const pl_lighting *L, const pl_timing *tm, double total_ms,
-                       int64_t dropped)
+                       double latency_ms, int64_t dropped)
 {
     size_t n = 0;
     int w;
@@ -112,8 +112,10 @@ static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const
     PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[", (double)dir[0],
         (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1], (double)rgb[2]);
     for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)sh[k]);
-    PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f},\"dropped\":%lld}\n",
-        tm->preprocess_ms, tm->infer_ms, total_ms, (long long)dropped);
+    PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f", tm->preprocess_ms,
+        tm->infer_ms, total_ms);
+    if (latency_ms >= 0) PUT(",\"latency\":%.3f", latency_ms);
+    PUT("},\"dropped\":%lld}\n", (long long)dropped);
 #undef PUT
     return 0;
 }
@@ -298,8 +300,10 @@ int cmd_estimate(int argc, char **argv)
             snprintf(source, sizeof source, "%s/%s", desc, fr.name);
         else
             snprintf(source, sizeof source, "%s", desc);
+        /* cameras stamp frames with CLOCK_MONOTONIC, pl_now_ns's clock: capture to this line */
+        const double latency_ms = camera ? (double)(pl_now_ns() - fr.t_ns) / 1e6 : -1.0;
         if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms,
-                        dropped) < 0) {
+                        latency_ms, dropped) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }

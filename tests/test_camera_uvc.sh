@@ -3,7 +3,8 @@
 # guest once (tools/camrig/run.sh --frames DIR --backend both: dummy_hcd + gadgetfs +
 # tools/camrig/uvc-gadget streaming two of tests/data/frames as YUYV over a bulk endpoint) and
 # checks, from the guest's results,
-#  - `parlight cameras` lists uvcvideo's /dev/video0 (UVC Camera 1d6b:0102) with YUYV usable;
+#  - `parlight cameras` lists uvcvideo's /dev/video0 (UVC Camera 1d6b:0102) with YUYV usable,
+#    and libcamera's camera [0];
 #  - `parlight estimate --camera v4l2:/dev/video0 --n-frames 2` (YUYV), the same with
 #    `:640x480:mjpeg`, and `parlight estimate --camera libcamera --n-frames 2` (libcamera's UVC
 #    pipeline, YUYV, with the udev-less workarounds of init-uvc.sh): two JSON lines each, driver
@@ -17,8 +18,7 @@
 #    an unknown ID and an index out of range are refused with clear messages (and, on the host,
 #    an empty ID and a spec that is not libcamera's).
 # A small seeded model (96x128 input, tools/export.py) keeps the TCG guest's estimates short.
-# Skips (77) when the VM cannot start (no qemu, kernel not downloadable) or the model cannot be
-# exported (no torch). About 50-70 s here.
+# Skips (77) when the VM cannot start (no qemu, kernel not downloadable). About 50-70 s here.
 set -u
 cd "$(dirname "$0")/.."
 BUILD=${BUILD:-build}
@@ -30,13 +30,8 @@ skip() { echo "SKIP: $*"; exit 77; }
 [ -x "$BUILD/parlight" ] || fail "no $BUILD/parlight (make all)"
 command -v qemu-system-x86_64 >/dev/null 2>&1 ||
     skip "qemu-system-x86_64 not installed: the camera VM cannot start (tools/install-deps.sh installs qemu-system-x86)"
-M=$BUILD/models/seeded-n3-96x128.plm
-if [ ! -f "$M" ]; then
-    mkdir -p "$BUILD/models"
-    /usr/bin/python3 tools/export.py --n-lights 3 --seed 1 --input 96x128 --out "$M.tmp" --force \
-        >"$T/export.log" 2>&1 || skip "cannot export the small model (torch?): $(tail -n 1 "$T/export.log")"
-    mv "$M.tmp" "$M"
-fi
+M=build/models/seeded-n3-96x128.plm
+[ -f "$M" ] || fail "no $M (make test exports it)"
 cp tests/data/frames/lab-lamps.jpg tests/data/frames/warehouse-tubes.jpg "$T/frames/"
 
 # the spec checks that need no camera, on the host
@@ -59,7 +54,7 @@ fi
 secs=$(( ($(date +%s%N) - start) / 1000000000 ))
 
 /usr/bin/python3 - "$T/results.txt" <<'PYEOF' || fail "checks on the guest's results failed (above)"
-import json, math, sys
+import json, math, re, sys
 
 steps, cur, rcs = {}, None, {}
 for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
@@ -83,6 +78,9 @@ check(rcs.get("cameras") == 0, f"cameras exited {rcs.get('cameras')}: {cams['E']
 check(any(l.startswith("/dev/video0: UVC Camera (1d6b:0102) (driver uvcvideo") for l in cams["O"]),
       f"cameras: no uvcvideo /dev/video0: {cams['O'][:3]}")
 check(any("YUYV" in l and "usable" in l for l in cams["O"]), "cameras: YUYV not usable")
+check(any(l.startswith("libcamera: 1 camera") for l in cams["O"]) and
+      any(re.match(r"\s+\[0\] \S+", l) for l in cams["O"]),
+      f"cameras: libcamera does not list the webcam: {[l for l in cams['O'] if 'libcamera' in l]}")
 
 def parse(step):
     objs = []
@@ -133,7 +131,10 @@ for step, prefix, fstep in (("estimate-v4l2", "v4l2:/dev/video0", "estimate-file
               f"{step}: frames {a['frame']}, {b['frame']} matched files {matched}: "
               "the sequence numbers do not follow the files")
         print(f"{step}: frames {a['frame']}, {b['frame']} identical to files "
-              f"{[files[m]['source'].split('/')[-1] for m in matched]}")
+              f"{[files[m]['source'].split('/')[-1] for m in matched]}; capture-to-JSON latency "
+              f"{', '.join(str(round(o['timing_ms'].get('latency', -1))) for o in objs)} ms, "
+              f"infer {', '.join(str(round(o['timing_ms']['infer'])) for o in objs)} ms, "
+              f"dropped {', '.join(str(o.get('dropped')) for o in objs)}")
     if step == "estimate-libcamera" and objs:
         sid = objs[0].get("source", "")
         check("-1:1.0-1d6b:0102" in sid and "DUMMY" in sid, f"libcamera camera ID {sid!r}")

@@ -150,7 +150,7 @@ fi
 awk '/^@@BEGIN estimate/ {on=1; next} /^@@END / {on=0} on && /^O / {print substr($0, 3)}' "$RES"
 # (the cameras listing shortened to its device lines and usable formats: vivid offers 83 formats)
 awk '/^@@BEGIN / {name=$2} /^@@END / {name=""}
-    name == "cameras" && /^O / && !/^O \/dev|usable/ {next}
+    name == "cameras" && /^O / && !/^O (\/dev|libcamera|V4L2|  *\[)|usable/ {next}
     name !~ /^estimate/ && /^[OE] / || name ~ /^estimate/ && /^E / {print "  [" name "] " substr($0, 3)}' "$RES" >&2
 guest_rc=$(sed -n 's/^@@EXIT //p' "$RES" | tail -n 1)
 up() { sed -n "s/^@@UPTIME $1 //p" "$RES" | tail -n 1; }
