@@ -76,6 +76,12 @@ if [ -z "$MODEL" ]; then
         int8) MODEL=build/models/seeded-n3-int8.plm ;;
         *) usage "--precision fp32|int8" ;;
     esac
+    # the int8 model: the seeded float model quantised on the sample frames, made when missing
+    if [ "$PRECISION" = int8 ] && [ ! -f "$MODEL" ]; then
+        [ -f build/models/seeded-n3.plm ] || make --no-print-directory build/models/seeded-n3.plm >&2
+        "$BUILD_DIR/parlight" quantize --model build/models/seeded-n3.plm --calib tests/data/frames \
+            --method percentile --out "$MODEL" >&2 || { echo "camrig: cannot make $MODEL" >&2; exit 1; }
+    fi
 fi
 
 command -v qemu-system-x86_64 >/dev/null 2>&1 || {
