@@ -1,0 +1,560 @@
+/* parlight eval: a model's estimates on the paper's crops of a folder of HDR panoramas, scored
+ * against the ground truth with three baselines (light/eval.h, docs/EVAL.md). */
+#include <dirent.h>
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "app/cli.h"
+#include "app/commands.h"
+#include "app/light_io.h"
+#include "light/eval.h"
+#include "light/extract.h"
+#include "light/lights_json.h"
+#include "parlight.h"
+#include "port/hdr_io.h"
+#include "port/threads.h"
+#include "port/util.h"
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: parlight eval --model M.plm --hdr DIR [--crops N] [--size S] [--threads N]\n"
+            "                     [--json] [--per-pano]\n"
+            "\n"
+            "Scores a model on the paper's crops of every HDR panorama (.exr/.hdr, 2:1) in DIR:\n"
+            "N crops per panorama, yaws 360/N apart at pitch 0, fov 60, 640x480, auto exposure,\n"
+            "gamma 2.2 (what `parlight crop --batch N` writes). Per crop, the model's estimate\n"
+            "from the crop's 8-bit pixels and three baselines, (a) the crop's mean linear colour\n"
+            "as ambient, (b) one light toward the crop's brightest cell plus ambient, (c) the\n"
+            "extracted ground-truth lights, are each compared with the truth, the diffuse sphere\n"
+            "lit by the panorama in the crop's camera frame on the crop's scale:\n"
+            "  rmse, si_rmse  render RMSE and scale-invariant RMSE (diffuse sphere, S px)\n"
+            "  angle          degrees between the primary light and the ground truth's\n"
+            "Prints the median and quartiles over all crops per method (docs/EVAL.md).\n"
+            "Files that are not panoramas are reported on stderr, counted and skipped.\n"
+            "\n"
+            "  --model M.plm   the model (fp32 or int8)\n"
+            "  --hdr DIR       folder of panoramas (not searched recursively)\n"
+            "  --crops N       crops per panorama, 1..64 (default 8)\n"
+            "  --size S        sphere render size in pixels, 8..512 (default 64)\n"
+            "  --threads N     threads for the model and the metrics, 1..64 (default 1);\n"
+            "                  results do not depend on N\n"
+            "  --json          one JSON object: per-method statistics and per-panorama rows\n"
+            "  --per-pano      the table for every panorama too\n"
+            "  -h, --help      this text\n");
+}
+
+/* One crop's work: its image and scale, the estimate, the scores and the status. */
+typedef struct crop_job {
+    pl_crop_params p;
+    pl_image_u8 ldr;
+    double k;
+    pl_lighting pred, gt;
+    pl_eval_scores s[PL_EVAL_N_METHODS];
+    int rc;
+    char err[512];
+} crop_job;
+
+typedef struct pano_ctx {
+    const pl_image_f32 *pano;
+    const pl_lighting *lights;
+    crop_job *jobs;
+    int size;
+} pano_ctx;
+
+static void record_error(crop_job *j, int rc)
+{
+    j->rc = rc;
+    snprintf(j->err, sizeof j->err, "yaw %g: %s", j->p.yaw_deg, pl_last_error());
+}
+
+static void make_crops(void *vctx, int begin, int end)
+{
+    pano_ctx *c = vctx;
+    for (int i = begin; i < end; i++) {
+        crop_job *j = &c->jobs[i];
+        int rc = pl_eval_make_crop(c->pano, &j->p, &j->ldr, &j->k);
+        if (rc < 0) record_error(j, rc);
+    }
+}
+
+static void score_crops(void *vctx, int begin, int end)
+{
+    pano_ctx *c = vctx;
+    for (int i = begin; i < end; i++) {
+        crop_job *j = &c->jobs[i];
+        if (j->rc < 0) continue;
+        int rc =
+            pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred, c->size, j->s, &j->gt);
+        if (rc < 0) record_error(j, rc);
+    }
+}
+
+/* What is kept of a panorama once its crops are scored. */
+typedef struct pano_row {
+    char *file;
+    int width, height, n_gt_lights;
+    double *yaw, *k;        /* [crops] */
+    pl_lighting *pred, *gt; /* [crops]: the model's estimates, the ground truths */
+    pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
+} pano_row;
+
+#define SKIP_FILE 1
+
+static void free_row(pano_row *r)
+{
+    free(r->yaw);
+    free(r->k);
+    free(r->s);
+    free(r->pred);
+    free(r->gt);
+    memset(r, 0, sizeof *r);
+}
+
+/* Reads and extracts one panorama, then crops (on the pool), estimates (one at a time, the
+ * model's own threads) and scores (on the pool) its crops into *r (file left unset). Returns 0,
+ * SKIP_FILE when the file is not a usable panorama, or a negative status on any other failure
+ * (the message in pl_last_error). ms[0..2] accumulate the wall time of the three phases. */
+static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model *model,
+                         pl_pool *pool, int crops, int size, crop_job *jobs, pano_row *r,
+                         double ms[3])
+{
+    pl_image_f32 pano = {0, 0, NULL};
+    pl_lighting lights;
+    if (pl_hdr_read_panorama(path, &pano) < 0) return SKIP_FILE;
+    if (pl_extract_lights(&pano, ep, &lights, NULL) < 0) {
+        pl_image_f32_free(&pano);
+        return SKIP_FILE;
+    }
+    memset(jobs, 0, (size_t)crops * sizeof *jobs);
+    for (int i = 0; i < crops; i++) {
+        pl_crop_default_params(&jobs[i].p); /* 640x480, fov 60, pitch 0, ev 0, gamma 2.2 */
+        jobs[i].p.yaw_deg = 360.0 * i / crops;
+    }
+    pano_ctx ctx = {&pano, &lights, jobs, size};
+    const int64_t t0 = pl_now_ns();
+    pl_pool_for(pool, crops, make_crops, &ctx);
+    const int64_t t1 = pl_now_ns();
+    for (int i = 0; i < crops; i++) {
+        crop_job *j = &jobs[i];
+        if (j->rc < 0) continue;
+        pl_timing tm;
+        int rc = pl_estimate_rgb8(model, j->ldr.data, j->ldr.width, j->ldr.height, j->ldr.stride,
+                                  &j->pred, &tm);
+        if (rc == 0 && (rc = pl_lighting_check(&j->pred)) < 0)
+            pl_error_prefix(rc, "the model's estimate is not a valid lighting");
+        if (rc < 0) record_error(j, rc);
+    }
+    const int64_t t2 = pl_now_ns();
+    pl_pool_for(pool, crops, score_crops, &ctx);
+    ms[0] += (double)(t1 - t0) / 1e6;
+    ms[1] += (double)(t2 - t1) / 1e6;
+    ms[2] += (double)(pl_now_ns() - t2) / 1e6;
+
+    int rc = 0;
+    for (int i = 0; i < crops && rc == 0; i++)
+        if (jobs[i].rc < 0) rc = pl_error(jobs[i].rc, "%s", jobs[i].err);
+    for (int i = 0; i < crops; i++)
+        pl_image_u8_free(&jobs[i].ldr);
+    r->width = pano.width;
+    r->height = pano.height;
+    r->n_gt_lights = lights.n_lights;
+    pl_image_f32_free(&pano);
+    if (rc < 0) return rc;
+    r->yaw = malloc((size_t)crops * sizeof *r->yaw);
+    r->k = malloc((size_t)crops * sizeof *r->k);
+    r->s = malloc((size_t)crops * PL_EVAL_N_METHODS * sizeof *r->s);
+    r->pred = malloc((size_t)crops * sizeof *r->pred);
+    r->gt = malloc((size_t)crops * sizeof *r->gt);
+    if (!r->yaw || !r->k || !r->s || !r->pred || !r->gt) {
+        free_row(r);
+        return pl_error(PL_E_NOMEM, "out of memory");
+    }
+    for (int i = 0; i < crops; i++) {
+        r->yaw[i] = jobs[i].p.yaw_deg;
+        r->k[i] = jobs[i].k;
+        r->pred[i] = jobs[i].pred;
+        r->gt[i] = jobs[i].gt;
+        memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
+    }
+    return 0;
+}
+
+typedef struct skipped_file {
+    char *file, *why;
+} skipped_file;
+
+static int cmp_str(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* The regular, non-hidden files of dir, sorted by name. */
+static int list_dir(const char *dir, char ***names, int *n)
+{
+    DIR *d = opendir(dir);
+    if (!d) return pl_error(PL_E_IO, "%s: cannot open the folder: %s", dir, strerror(errno));
+    char **v = NULL;
+    int cnt = 0, cap = 0, rc = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char path[4096];
+        struct stat st;
+        if ((size_t)snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= sizeof path ||
+            stat(path, &st) != 0 || !S_ISREG(st.st_mode))
+            continue;
+        if (cnt == cap) {
+            cap = cap ? 2 * cap : 16;
+            char **nv = realloc(v, (size_t)cap * sizeof *nv);
+            if (!nv) {
+                rc = pl_error(PL_E_NOMEM, "%s: out of memory", dir);
+                break;
+            }
+            v = nv;
+        }
+        if (!(v[cnt] = strdup(e->d_name))) {
+            rc = pl_error(PL_E_NOMEM, "%s: out of memory", dir);
+            break;
+        }
+        cnt++;
+    }
+    closedir(d);
+    if (rc == 0 && cnt == 0) rc = pl_error(PL_E_IO, "%s: no files in the folder", dir);
+    if (rc < 0) {
+        for (int i = 0; i < cnt; i++)
+            free(v[i]);
+        free(v);
+        return rc;
+    }
+    qsort(v, (size_t)cnt, sizeof *v, cmp_str);
+    *names = v;
+    *n = cnt;
+    return 0;
+}
+
+static void put_num(FILE *f, double v)
+{
+    if (isfinite(v))
+        fprintf(f, "%.6g", v);
+    else
+        fputs("null", f);
+}
+
+/* Statistics of metric `metric` (0 rmse, 1 si_rmse, 2 angle) of method m over n crops. */
+static int stats_of(const pl_eval_scores *s, int n, int m, int metric, double *buf,
+                    pl_eval_stats *out)
+{
+    for (int i = 0; i < n; i++) {
+        const pl_eval_scores *x = &s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
+        buf[i] = metric == 0 ? x->rmse : metric == 1 ? x->si_rmse : x->angle_deg;
+    }
+    return pl_eval_quartiles(buf, n, out);
+}
+
+static void put_stats_json(FILE *f, const char *key, const pl_eval_stats *st, int quartiles)
+{
+    fprintf(f, "\"%s\":{\"median\":", key);
+    put_num(f, st->median);
+    if (quartiles) {
+        fputs(",\"q1\":", f);
+        put_num(f, st->q1);
+        fputs(",\"q3\":", f);
+        put_num(f, st->q3);
+    }
+    fprintf(f, ",\"n\":%d}", st->n);
+}
+
+static const char *const metric_keys[3] = {"rmse", "si_rmse", "angle_deg"};
+
+/* {"model":{"rmse":{...},"si_rmse":{...},"angle_deg":{...}},...} over n crops. */
+static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, double *buf)
+{
+    fputc('{', f);
+    for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        fprintf(f, "%s\"%s\":{", m ? "," : "", pl_eval_method_key(m));
+        for (int q = 0; q < 3; q++) {
+            pl_eval_stats st;
+            int rc = stats_of(s, n, m, q, buf, &st);
+            if (rc < 0) return rc;
+            if (q) fputc(',', f);
+            put_stats_json(f, metric_keys[q], &st, 1);
+        }
+        fputc('}', f);
+    }
+    fputc('}', f);
+    return 0;
+}
+
+/* One crop's JSON object: yaw, exposure scale, the scores of every method, the model's
+ * estimate and the ground truth (lights JSON members, light/lights_json.h). */
+static int put_crop_json(FILE *f, const pano_row *pr, int i)
+{
+    fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g", pr->yaw[i], pr->k[i]);
+    for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        const pl_eval_scores *x = &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
+        fprintf(f, ",\"%s\":{\"rmse\":", pl_eval_method_key(m));
+        put_num(f, x->rmse);
+        fputs(",\"si_rmse\":", f);
+        put_num(f, x->si_rmse);
+        fputs(",\"angle_deg\":", f);
+        put_num(f, x->angle_deg);
+        fputc('}', f);
+    }
+    char lj[PL_MAX_LIGHTS * 256 + 128];
+    const pl_lighting *L[2] = {&pr->pred[i], &pr->gt[i]};
+    const char *key[2] = {"estimate", "ground_truth"};
+    for (int t = 0; t < 2; t++) {
+        if (pl_lighting_format_json(L[t], lj, sizeof lj) < 0)
+            return pl_error(PL_E_INTERNAL, "eval: %s JSON longer than %zu bytes", key[t],
+                            sizeof lj);
+        fprintf(f, ",\"%s\":{%s}", key[t], lj);
+    }
+    fputc('}', f);
+    return 0;
+}
+
+static void put_cell(FILE *f, const pl_eval_stats *st, int width)
+{
+    char b[96];
+    if (st->n == 0)
+        snprintf(b, sizeof b, "-");
+    else
+        snprintf(b, sizeof b, "%.4g [%.4g, %.4g]", st->median, st->q1, st->q3);
+    fprintf(f, "  %-*s", width, b);
+}
+
+static int put_table(FILE *f, const pl_eval_scores *s, int n, double *buf)
+{
+    fprintf(f, "  %-24s  %-28s  %-28s  %s\n", "method", "rmse median [q1, q3]",
+            "si-rmse median [q1, q3]", "angle deg median [q1, q3]");
+    for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        fprintf(f, "  %-24s", pl_eval_method_label(m));
+        for (int q = 0; q < 3; q++) {
+            pl_eval_stats st;
+            int rc = stats_of(s, n, m, q, buf, &st);
+            if (rc < 0) return rc;
+            put_cell(f, &st, q < 2 ? 28 : 0);
+        }
+        fputc('\n', f);
+    }
+    return 0;
+}
+
+int cmd_eval(int argc, char **argv)
+{
+    static const struct option opts[] = {{"model", required_argument, 0, 'm'},
+                                         {"hdr", required_argument, 0, 'i'},
+                                         {"crops", required_argument, 0, 'c'},
+                                         {"size", required_argument, 0, 's'},
+                                         {"threads", required_argument, 0, 't'},
+                                         {"json", no_argument, 0, 'j'},
+                                         {"per-pano", no_argument, 0, 'p'},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
+    const char *model_path = NULL, *dir = NULL;
+    int crops = 8, size = 64, threads = 1, json = 0, per_pano = 0, c;
+    optind = 1;
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'm':
+            model_path = optarg;
+            break;
+        case 'i':
+            dir = optarg;
+            break;
+        case 'c':
+            if (cli_int("eval", "--crops", optarg, 1, 64, &crops) < 0) return 2;
+            break;
+        case 's':
+            if (cli_int("eval", "--size", optarg, 8, 512, &size) < 0) return 2;
+            break;
+        case 't':
+            if (cli_int("eval", "--threads", optarg, 1, PL_MAX_THREADS, &threads) < 0) return 2;
+            break;
+        case 'j':
+            json = 1;
+            break;
+        case 'p':
+            per_pano = 1;
+            break;
+        case 'h':
+            usage(stdout);
+            return 0;
+        case ':':
+            fprintf(stderr, "parlight eval: %s needs a value\n", argv[optind - 1]);
+            return 2;
+        default:
+            fprintf(stderr, "parlight eval: unknown option '%s' (see --help)\n", argv[optind - 1]);
+            return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "parlight eval: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+    if (!model_path || !dir) {
+        fprintf(stderr, "parlight eval: %s is required (see --help)\n",
+                !model_path ? "--model M.plm" : "--hdr DIR");
+        return 2;
+    }
+
+    int ret = 1, n_files = 0, n_rows = 0, n_skipped = 0;
+    char **files = NULL;
+    pano_row *rows = NULL;
+    skipped_file *skipped = NULL;
+    crop_job *jobs = NULL;
+    pl_model *model = NULL;
+    pl_pool *pool = NULL;
+    double *buf = NULL;
+    pl_model_info mi;
+    double ms[3] = {0, 0, 0}; /* wall time making crops, estimating, scoring */
+    const int64_t t_start = pl_now_ns();
+
+    if (list_dir(dir, &files, &n_files) < 0 || pl_model_load(model_path, &model) < 0 ||
+        pl_model_set_threads(model, threads) < 0 || pl_model_get_info(model, &mi) < 0 ||
+        pl_pool_create(threads, &pool) < 0) {
+        fprintf(stderr, "parlight eval: %s\n", pl_last_error());
+        goto out;
+    }
+    rows = calloc((size_t)n_files, sizeof *rows);
+    skipped = calloc((size_t)n_files, sizeof *skipped);
+    jobs = calloc((size_t)crops, sizeof *jobs);
+    if (!rows || !skipped || !jobs) {
+        fprintf(stderr, "parlight eval: out of memory\n");
+        goto out;
+    }
+    pl_extract_params ep;
+    pl_extract_default_params(&ep);
+
+    for (int f = 0; f < n_files; f++) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s", dir, files[f]);
+        int st = eval_panorama(path, &ep, model, pool, crops, size, jobs, &rows[n_rows], ms);
+        if (st == SKIP_FILE) {
+            fprintf(stderr, "parlight eval: skipping %s: %s\n", files[f], pl_last_error());
+            skipped[n_skipped].file = files[f];
+            skipped[n_skipped].why = strdup(pl_last_error());
+            n_skipped++;
+            continue;
+        }
+        if (st < 0) { /* an error in our own maths or the model: not a file to skip */
+            fprintf(stderr, "parlight eval: %s: %s\n", files[f], pl_last_error());
+            goto out;
+        }
+        rows[n_rows++].file = files[f];
+    }
+    if (n_rows == 0) {
+        fprintf(stderr, "parlight eval: no usable panorama in %s (%d file%s skipped)\n", dir,
+                n_skipped, n_skipped == 1 ? "" : "s");
+        goto out;
+    }
+
+    /* all crops of all panoramas, in one array */
+    const int n_crops = n_rows * crops;
+    pl_eval_scores *all = malloc((size_t)n_crops * PL_EVAL_N_METHODS * sizeof *all);
+    buf = malloc((size_t)n_crops * sizeof *buf);
+    if (!all || !buf) {
+        free(all);
+        fprintf(stderr, "parlight eval: out of memory\n");
+        goto out;
+    }
+    for (int r = 0; r < n_rows; r++)
+        memcpy(&all[(size_t)r * crops * PL_EVAL_N_METHODS], rows[r].s,
+               (size_t)crops * PL_EVAL_N_METHODS * sizeof *all);
+    int rc = 0;
+    if (json) {
+        printf("{\"model\":");
+        pl_app_put_json_string(stdout, model_path);
+        printf(",\"precision\":\"%s\",\"n_lights\":%d,\"hdr\":", mi.precision, mi.n_lights);
+        pl_app_put_json_string(stdout, dir);
+        pl_crop_params cp;
+        pl_crop_default_params(&cp);
+        printf(",\"crops_per_panorama\":%d,\"crop\":{\"width\":%d,\"height\":%d,\"fov_deg\":%g,"
+               "\"pitch_deg\":%g,\"exposure_ev\":%g,\"gamma\":%g,\"yaw_step_deg\":%.9g},"
+               "\"sphere\":{\"material\":\"diffuse\",\"size\":%d,\"truth_map_width\":%d},"
+               "\"n_panoramas\":%d,\"n_crops\":%d,\"n_skipped\":%d,\"skipped\":[",
+               crops, cp.width, cp.height, cp.fov_deg, cp.pitch_deg, cp.exposure_ev, cp.gamma,
+               360.0 / crops, size, PL_EVAL_TRUTH_MAP_WIDTH, n_rows, n_crops, n_skipped);
+        for (int i = 0; i < n_skipped; i++) {
+            printf("%s{\"file\":", i ? "," : "");
+            pl_app_put_json_string(stdout, skipped[i].file);
+            printf(",\"error\":");
+            pl_app_put_json_string(stdout, skipped[i].why ? skipped[i].why : "");
+            printf("}");
+        }
+        printf("],\"methods\":");
+        rc = put_methods_json(stdout, all, n_crops, buf);
+        printf(",\"panoramas\":[");
+        for (int r = 0; r < n_rows && rc == 0; r++) {
+            const pano_row *pr = &rows[r];
+            printf("%s{\"file\":", r ? "," : "");
+            pl_app_put_json_string(stdout, pr->file);
+            printf(",\"width\":%d,\"height\":%d,\"gt_lights\":%d,\"methods\":", pr->width,
+                   pr->height, pr->n_gt_lights);
+            rc = put_methods_json(stdout, pr->s, crops, buf);
+            printf(",\"crops\":[");
+            for (int i = 0; i < crops && rc == 0; i++) {
+                if (i) putchar(',');
+                rc = put_crop_json(stdout, pr, i);
+            }
+            printf("]}");
+        }
+        printf("]}\n");
+    } else {
+        printf("parlight eval: %s (%s, %d lights) on %s: %d panorama%s x %d crops (yaw 360/%d "
+               "apart, pitch 0, fov 60, 640x480, gamma 2.2), diffuse sphere %d px\n",
+               model_path, mi.precision, mi.n_lights, dir, n_rows, n_rows == 1 ? "" : "s", crops,
+               crops, size);
+        rc = put_table(stdout, all, n_crops, buf);
+        for (int r = 0; r < n_rows && per_pano && rc == 0; r++) {
+            printf("\n%s (%dx%d, %d ground-truth light%s)\n", rows[r].file, rows[r].width,
+                   rows[r].height, rows[r].n_gt_lights, rows[r].n_gt_lights == 1 ? "" : "s");
+            rc = put_table(stdout, rows[r].s, crops, buf);
+        }
+    }
+    free(all);
+    if (rc < 0) {
+        fprintf(stderr, "parlight eval: %s\n", pl_last_error());
+        goto out;
+    }
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        fprintf(stderr, "parlight eval: cannot write the output\n");
+        goto out;
+    }
+    fprintf(stderr,
+            "parlight eval: %d panorama%s, %d crop%s in %.1f s (crops %.1f s, estimates %.1f s, "
+            "metrics %.1f s, %d thread%s)",
+            n_rows, n_rows == 1 ? "" : "s", n_crops, n_crops == 1 ? "" : "s",
+            (double)(pl_now_ns() - t_start) / 1e9, ms[0] / 1e3, ms[1] / 1e3, ms[2] / 1e3, threads,
+            threads == 1 ? "" : "s");
+    if (n_skipped)
+        fprintf(stderr, "; %d file%s skipped (not panoramas)", n_skipped,
+                n_skipped == 1 ? "" : "s");
+    fputc('\n', stderr);
+    ret = 0;
+out:
+    for (int r = 0; r < n_rows; r++)
+        free_row(&rows[r]);
+    for (int i = 0; i < n_skipped; i++)
+        free(skipped[i].why);
+    for (int i = 0; i < n_files; i++)
+        free(files[i]);
+    if (jobs)
+        for (int i = 0; i < crops; i++)
+            pl_image_u8_free(&jobs[i].ldr);
+    free(files);
+    free(rows);
+    free(skipped);
+    free(jobs);
+    free(buf);
+    pl_pool_destroy(pool);
+    pl_model_free(model);
+    return ret;
+}

@@ -1,0 +1,161 @@
+#!/usr/bin/env bash
+# `parlight eval` end to end (docs/EVAL.md): on a panorama made here with `parlight render` from one
+# strong light (its extracted lights, baseline (c), must beat the mean-ambient baseline (a) by far),
+# with a file that is not a panorama beside it (reported, counted, skipped); the JSON's shape; the
+# same numbers with 1 and 2 threads; the text table and --per-pano; bad inputs (exit 1 or 2 with
+# a message naming the problem). Then 2 crops of 2 panoramas of ../shared/data/hdri/eval when it
+# is there (that part is skipped without it). Model: build/models/seeded-n3.plm (seeded weights:
+# the model's numbers mean nothing, the plumbing is what is tested).
+set -u
+cd "$(dirname "$0")/.."
+BUILD=${BUILD:-build}
+P="$BUILD/parlight"
+M=build/models/seeded-n3.plm
+PY=/usr/bin/python3
+T=${PL_TEST_TMP:-$(mktemp -d)}/eval_cli
+[ -x "$P" ] || { echo "skip: $P not built"; exit 77; }
+[ -f "$M" ] || { echo "skip: no $M (make build/models/seeded-n3.plm)"; exit 77; }
+rm -rf "$T"
+mkdir -p "$T/synth" "$T/empty" "$T/junk"
+fails=0
+fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
+# expect CODE PATTERN -- command...: exit status CODE and stderr matching PATTERN
+expect() {
+    local code=$1 pat=$2
+    shift 3
+    timeout 120 "$@" >"$T/out" 2>"$T/err"
+    local rc=$?
+    if [ $rc -ne "$code" ]; then
+        fail "$* -> exit $rc, expected $code ($(head -c 400 "$T/err"))"
+    elif [ -n "$pat" ] && ! grep -qE -- "$pat" "$T/err"; then
+        fail "$* -> stderr '$(head -c 400 "$T/err")' lacks /$pat/"
+    else
+        echo "ok   exit $rc: $*  $(tail -n 1 "$T/err" | head -c 160)"
+    fi
+}
+
+# --- a panorama with one strong light above and to the right, and a dim ambient ---
+cat >"$T/one.json" <<'J'
+{"lights":[{"dir":[0.4,0.6,-0.7],"distance_m":2,"solid_angle_sr":0.08,"rgb":[300,280,240]}],
+ "ambient":[0.25,0.25,0.3]}
+J
+"$P" render --lights "$T/one.json" --out "$T/synth/one.exr" --width 512 >/dev/null 2>&1 ||
+    { echo "FAIL: parlight render could not make the test panorama"; exit 1; }
+echo "not a panorama" >"$T/synth/notes.txt"
+
+# check_json FILE N_PANOS N_CROPS N_SKIPPED: the documented shape (docs/EVAL.md)
+check_json() {
+    "$PY" - "$@" <<'PY'
+import json, math, sys
+path, n_pano, n_crops, n_skip = sys.argv[1], *map(int, sys.argv[2:5])
+d = json.load(open(path))
+err = []
+def need(c, msg):
+    if not c: err.append(msg)
+methods = ["model", "ambient", "brightest", "gt_lights"]
+need(d.get("n_panoramas") == n_pano, f"n_panoramas {d.get('n_panoramas')}, want {n_pano}")
+need(d.get("n_crops") == n_pano * n_crops, f"n_crops {d.get('n_crops')}")
+need(d.get("n_skipped") == n_skip and len(d.get("skipped", [])) == n_skip, f"skipped {d.get('skipped')}")
+need(d.get("crops_per_panorama") == n_crops, "crops_per_panorama")
+need(d.get("precision") in ("fp32", "int8"), "precision")
+def stats_ok(m, where):
+    for k in ("rmse", "si_rmse"):
+        s = m.get(k, {})
+        ok = all(isinstance(s.get(q), (int, float)) for q in ("median", "q1", "q3"))
+        need(ok and s["q1"] <= s["median"] <= s["q3"] and s["q1"] >= 0, f"{where}.{k} = {s}")
+    need("median" in m.get("angle_deg", {}), f"{where}.angle_deg")
+for m in methods:
+    stats_ok(d["methods"].get(m, {}), "methods." + m)
+need(len(d.get("panoramas", [])) == n_pano, "panoramas rows")
+for p in d.get("panoramas", []):
+    for m in methods:
+        stats_ok(p["methods"].get(m, {}), p["file"] + "." + m)
+    need(len(p.get("crops", [])) == n_crops, p["file"] + " crops")
+    for c in p.get("crops", []):
+        need(c["exposure_scale"] > 0 and all(c[m]["rmse"] >= 0 for m in methods), f"crop {c}")
+# (c), the extracted lights, is the representation's ceiling: far better than a flat ambient
+a, c = d["methods"]["ambient"], d["methods"]["gt_lights"]
+need(c["rmse"]["median"] < 0.5 * a["rmse"]["median"],
+     f"(c) rmse {c['rmse']['median']} does not beat (a) {a['rmse']['median']}")
+need(c["angle_deg"]["median"] < 1e-3, "(c) angle")
+print("\n".join("FAIL: " + e for e in err) or f"ok   JSON shape of {path}: (a) rmse {a['rmse']['median']:.4g}, (c) rmse {c['rmse']['median']:.4g}")
+sys.exit(1 if err else 0)
+PY
+}
+
+expect 0 "1 file skipped" -- "$P" eval --model "$M" --hdr "$T/synth" --crops 2 --size 32 --json --threads 2
+cp "$T/out" "$T/synth2.json"
+grep -q "skipping notes.txt" "$T/err" || fail "notes.txt was not reported as skipped"
+check_json "$T/synth2.json" 1 2 1 || fails=$((fails + 1))
+"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); c=d["panoramas"][0]["crops"][0]["gt_lights"]; a=d["panoramas"][0]["crops"][0]["ambient"]; sys.exit(0 if c["si_rmse"] < 0.2*a["si_rmse"] else 1)' "$T/synth2.json" ||
+    fail "(c) si-rmse is not far below (a) on the one-light panorama"
+expect 0 "" -- "$P" eval --model "$M" --hdr "$T/synth" --crops 2 --size 32 --json --threads 1
+cmp -s "$T/out" "$T/synth2.json" || fail "--threads 1 and --threads 2 give different JSON"
+# the crops, estimates and ground truth are those of `crop --batch` + `estimate`, to the last digit
+if "$P" crop --hdr "$T/synth/one.exr" --batch 2 --out-dir "$T/batch" >/dev/null 2>&1 &&
+    "$P" estimate --model "$M" --input "$T/batch/one_yaw000.png" >"$T/est0.json" 2>/dev/null &&
+    "$P" estimate --model "$M" --input "$T/batch/one_yaw180.png" >"$T/est1.json" 2>/dev/null; then
+    "$PY" - "$T" <<'PY' || fail "eval's crops differ from crop --batch + estimate"
+import json, sys
+t = sys.argv[1]
+crops = json.load(open(t + "/synth2.json"))["panoramas"][0]["crops"]
+bad = 0
+for i, yaw in enumerate(("000", "180")):
+    est = json.load(open(f"{t}/est{i}.json"))
+    gt = json.load(open(f"{t}/batch/one_yaw{yaw}.json"))
+    c = crops[i]
+    if c["estimate"] != {"lights": est["lights"], "ambient": est["ambient"]}:
+        print(f"yaw {yaw}: estimate {c['estimate']} vs parlight estimate {est['lights']}"); bad = 1
+    if c["ground_truth"] != {"lights": gt["lights"], "ambient": gt["ambient"]} or \
+            c["exposure_scale"] != gt["exposure_scale"]:
+        print(f"yaw {yaw}: ground truth {c['ground_truth']} vs crop --gt {gt['lights']}"); bad = 1
+print("ok   estimates and ground truth = crop --batch + estimate" if not bad else "")
+sys.exit(bad)
+PY
+else
+    fail "parlight crop --batch / estimate failed on the test panorama"
+fi
+expect 0 "" -- "$P" eval --model "$M" --hdr "$T/synth" --crops 1 --size 16 --per-pano
+for w in "rmse median" "^  model " "\(a\) mean ambient" "\(b\) brightest" "\(c\) gt lights" "^one.exr"; do
+    grep -qE -- "$w" "$T/out" || fail "text output lacks /$w/"
+done
+
+# --- bad inputs ---
+echo "not a model" >"$T/bad.plm"
+echo "x" >"$T/junk/a.txt"
+expect 1 "cannot open" -- "$P" eval --model "$M" --hdr "$T/missing"
+expect 1 "no files" -- "$P" eval --model "$M" --hdr "$T/empty"
+expect 1 "no usable panorama.*1 file skipped" -- "$P" eval --model "$M" --hdr "$T/junk"
+expect 1 "bad.plm" -- "$P" eval --model "$T/bad.plm" --hdr "$T/synth"
+expect 1 "missing.plm" -- "$P" eval --model "$T/missing.plm" --hdr "$T/synth"
+expect 2 "--model" -- "$P" eval --hdr "$T/synth"
+expect 2 "--hdr" -- "$P" eval --model "$M"
+expect 2 "--crops" -- "$P" eval --model "$M" --hdr "$T/synth" --crops 0
+expect 2 "--size" -- "$P" eval --model "$M" --hdr "$T/synth" --size 4
+expect 2 "--threads" -- "$P" eval --model "$M" --hdr "$T/synth" --threads x
+expect 2 "unknown option" -- "$P" eval --model "$M" --hdr "$T/synth" --frobnicate
+expect 2 "needs a value" -- "$P" eval --model "$M" --hdr
+expect 2 "unexpected argument" -- "$P" eval --model "$M" --hdr "$T/synth" extra
+expect 0 "" -- "$P" eval --help
+grep -q -- "--per-pano" "$T/out" || fail "eval --help lacks --per-pano"
+
+# --- 2 crops of 2 real panoramas, when ../shared is there ---
+E=${PL_SHARED:-../shared}/data/hdri/eval
+if [ -d "$E" ]; then
+    mkdir -p "$T/real"
+    for f in lebombo.hdr st_fagans_interior.hdr; do
+        [ -f "$E/$f" ] && ln -sf "$(cd "$E" && pwd)/$f" "$T/real/$f"
+    done
+    if [ "$(ls "$T/real" | wc -l)" -eq 2 ]; then
+        expect 0 "2 panoramas, 4 crops" -- "$P" eval --model "$M" --hdr "$T/real" --crops 2 --size 32 --json --threads 2
+        cp "$T/out" "$T/real.json"
+        check_json "$T/real.json" 2 2 0 || fails=$((fails + 1))
+    else
+        echo "skip (part): lebombo.hdr / st_fagans_interior.hdr missing from $E"
+    fi
+else
+    echo "skip (part): no $E"
+fi
+
+[ $fails -eq 0 ] || { echo "$fails failure(s)"; exit 1; }
+echo "all eval CLI checks passed"
