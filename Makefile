@@ -3,6 +3,7 @@
 #   make              build build/parlight (and build/libparlight.a)
 #   make demo         install what is missing, build, run the shipped model on the sample frames
 #   make test         install what is missing, build, run the whole suite (tests/run.sh)
+#   make bench        parlight vs PyTorch and ONNX Runtime, same weights (tools/bench/run.sh)
 #   make clean        remove build/
 #   make BOARD=name   build for boards/name.mk (default: host)
 #
@@ -23,26 +24,75 @@ else
 BUILD ?= build/$(BOARD)
 endif
 
+# ---- optional libraries: the target's pkg-config decides (docs/PORTING.md) ---------------------
+# A cross board sets BOARD_PKG_CONFIG_LIBDIR to its multiarch .pc folder, so only libraries
+# installed for that architecture count. WITH_<LIB>=0 turns one off (e.g. WITH_OPENCV=0 to build
+# the host without OpenCV, as a board build would be); without a library its functions return
+# PL_E_UNSUPPORTED saying "this build has no ..." and the tests that need it skip.
+#   libjpeg, libpng: JPEG/PNG files and MJPEG frames (port/jpeg_codec.c, port/png_codec.c)
+#   OpenCV:          other image formats, videos, test fixtures (port/image_io.cpp, video_cv.cpp)
+#   OpenEXR:         .exr panoramas and maps (port/exr_io.cpp)
+#   libcamera:       the libcamera source (port/source_libcamera.cpp)
+ifneq ($(BOARD_PKG_CONFIG_LIBDIR),)
+PKG_CONFIG ?= PKG_CONFIG_LIBDIR=$(BOARD_PKG_CONFIG_LIBDIR) pkg-config
+else
 PKG_CONFIG ?= pkg-config
-OPENCV_CFLAGS := $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null)
-OPENCV_LIBS   := -lopencv_videoio -lopencv_imgcodecs -lopencv_imgproc -lopencv_core
-EXR_CFLAGS    := $(shell $(PKG_CONFIG) --cflags OpenEXR 2>/dev/null)
-EXR_LIBS      := $(shell $(PKG_CONFIG) --libs OpenEXR 2>/dev/null)
-# libcamera (optional: without it port/source_libcamera.cpp builds stubs that say so)
-LIBCAMERA_CFLAGS := $(shell $(PKG_CONFIG) --cflags libcamera 2>/dev/null)
-LIBCAMERA_LIBS   := $(shell $(PKG_CONFIG) --libs libcamera 2>/dev/null)
-ifneq ($(LIBCAMERA_LIBS),)
-LIBCAMERA_CFLAGS += -DPL_HAVE_LIBCAMERA=1
 endif
+WITH_LIBJPEG   ?= 1
+WITH_LIBPNG    ?= 1
+WITH_OPENCV    ?= 1
+WITH_OPENEXR   ?= 1
+WITH_LIBCAMERA ?= 1
+# $(call pc_have,WITH_X,module): 1 when wanted and pkg-config finds it for the target
+pc_have = $(if $(filter 1,$($(1))),$(shell $(PKG_CONFIG) --exists $(2) 2>/dev/null && echo 1))
+HAVE_LIBJPEG   := $(call pc_have,WITH_LIBJPEG,libjpeg)
+HAVE_LIBPNG    := $(call pc_have,WITH_LIBPNG,libpng)
+HAVE_OPENCV    := $(call pc_have,WITH_OPENCV,opencv4)
+HAVE_OPENEXR   := $(call pc_have,WITH_OPENEXR,OpenEXR)
+HAVE_LIBCAMERA := $(call pc_have,WITH_LIBCAMERA,libcamera)
+FEATURE_FLAGS  := $(if $(HAVE_LIBJPEG),-DPL_HAVE_LIBJPEG=1) $(if $(HAVE_LIBPNG),-DPL_HAVE_LIBPNG=1) \
+                  $(if $(HAVE_OPENCV),-DPL_HAVE_OPENCV=1) $(if $(HAVE_OPENEXR),-DPL_HAVE_OPENEXR=1) \
+                  $(if $(HAVE_LIBCAMERA),-DPL_HAVE_LIBCAMERA=1)
+FEATURES       := $(strip $(if $(HAVE_LIBJPEG),libjpeg) $(if $(HAVE_LIBPNG),libpng) \
+                  $(if $(HAVE_OPENCV),opencv) $(if $(HAVE_OPENEXR),openexr) \
+                  $(if $(HAVE_LIBCAMERA),libcamera))
+pc_cflags = $(if $(2),$(shell $(PKG_CONFIG) --cflags $(1) 2>/dev/null))
+pc_libs   = $(if $(2),$(shell $(PKG_CONFIG) --libs $(1) 2>/dev/null))
+OPENCV_CFLAGS := $(call pc_cflags,opencv4,$(HAVE_OPENCV))
+OPENCV_LIBS   := $(if $(HAVE_OPENCV),-lopencv_videoio -lopencv_imgcodecs -lopencv_imgproc -lopencv_core)
+EXR_CFLAGS    := $(call pc_cflags,OpenEXR,$(HAVE_OPENEXR))
+EXR_LIBS      := $(call pc_libs,OpenEXR,$(HAVE_OPENEXR))
+LIBCAMERA_CFLAGS := $(call pc_cflags,libcamera,$(HAVE_LIBCAMERA))
+LIBCAMERA_LIBS   := $(call pc_libs,libcamera,$(HAVE_LIBCAMERA))
+CODEC_CFLAGS  := $(call pc_cflags,libjpeg,$(HAVE_LIBJPEG)) $(call pc_cflags,libpng,$(HAVE_LIBPNG))
+CODEC_LIBS    := $(call pc_libs,libpng,$(HAVE_LIBPNG)) $(call pc_libs,libjpeg,$(HAVE_LIBJPEG))
+
+# ---- plugins (port/plugin.h) ------------------------------------------------------------------
+# PLUGINS=1 (default): OpenCV's and libcamera's sides are built as $(BUILD)/parlight-opencv.so
+# and $(BUILD)/parlight-libcamera.so, loaded with dlopen only when an input needs them (a video,
+# a BMP/TIFF/... image, a libcamera camera), so that estimating on JPEG/PNG frames does not load
+# ~240 shared libraries. PLUGINS=0 links them into the binary as before.
+PLUGINS ?= 1
+ifeq ($(PLUGINS),1)
+PLUGIN_OPENCV_SRC    := $(if $(HAVE_OPENCV),port/image_io.cpp port/video_cv.cpp port/test_helpers_cv.cpp)
+PLUGIN_LIBCAMERA_SRC := $(if $(HAVE_LIBCAMERA),port/source_libcamera.cpp)
+endif
+FEATURE_FLAGS += $(if $(PLUGIN_OPENCV_SRC),-DPL_OPENCV_PLUGIN=1) \
+                 $(if $(PLUGIN_LIBCAMERA_SRC),-DPL_LIBCAMERA_PLUGIN=1)
+PLUGIN_SO := $(if $(PLUGIN_OPENCV_SRC),$(BUILD)/parlight-opencv.so) \
+             $(if $(PLUGIN_LIBCAMERA_SRC),$(BUILD)/parlight-libcamera.so)
+CORE_LIBS := $(if $(PLUGIN_OPENCV_SRC),,$(OPENCV_LIBS)) $(EXR_LIBS) \
+             $(if $(PLUGIN_LIBCAMERA_SRC),,$(LIBCAMERA_LIBS)) $(CODEC_LIBS) \
+             $(if $(PLUGIN_SO),-rdynamic -ldl)
 
 WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wmissing-prototypes \
             -Wformat=2 -Wundef
 OPT      ?= -O2 -g
-CPPFLAGS += -Iinclude -I. -D_GNU_SOURCE
+CPPFLAGS += -Iinclude -I. -D_GNU_SOURCE $(FEATURE_FLAGS)
 CFLAGS   += -std=c11 $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread
 CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
             $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS)
-LDLIBS   += $(OPENCV_LIBS) $(EXR_LIBS) $(LIBCAMERA_LIBS) -lstdc++ -lm -pthread
+LDLIBS   += $(CORE_LIBS) -lstdc++ -lm -pthread
 
 LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
 
@@ -64,7 +114,8 @@ ISA_FLAGS_neon       :=
 ISA_FLAGS_dotprod    := -march=armv8.2-a+dotprod
 ISA_FLAGS_i8mm       := -march=armv8.6-a+dotprod+i8mm
 isa_of = $(lastword $(subst __, ,$(basename $(notdir $(1)))))
-LIB_CXX := $(sort $(wildcard port/*.cpp light/*.cpp))
+LIB_CXX := $(filter-out $(PLUGIN_OPENCV_SRC) $(PLUGIN_LIBCAMERA_SRC),\
+                        $(sort $(wildcard port/*.cpp light/*.cpp)))
 APP_C   := $(sort $(wildcard app/*.c))
 TEST_C  := $(sort $(wildcard tests/*.c))
 
@@ -85,24 +136,48 @@ build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 	@mkdir -p $(dir $@)
 	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force
 
-.PHONY: all deps demo test tests clean format-check test-camera
-all: $(CLI) tests
+.PHONY: all deps demo test tests clean format-check test-camera bench FORCE
+all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO)
+
+# The optional libraries this build has, one word each (tests/run.sh skips the tests that need
+# a missing one); rewritten only when the list changes.
+$(BUILD)/features: FORCE
+	@mkdir -p $(dir $@)
+	@echo '$(FEATURES)' | cmp -s - $@ || echo '$(FEATURES)' > $@
 
 tests: $(TEST_BIN)
 
 deps:
-	@tools/install-deps.sh
+	@BOARD=$(BOARD) tools/install-deps.sh
 
 # Kernels are where the time goes: let the compiler vectorise their inner loops fully.
 $(BUILD)/obj/kernels/%.o: OPT := -O3 -g
 
-$(BUILD)/obj/%.o: %.c
+# Test programs may need a workaround on a board's compiler (boards/*.mk, BOARD_TEST_CFLAGS).
+$(BUILD)/obj/tests/%.o: CFLAGS += $(BOARD_TEST_CFLAGS)
+
+# Codec files see their libraries' headers (libpng16's live in a subfolder).
+$(BUILD)/obj/port/png_codec.o $(BUILD)/obj/port/jpeg_codec.o: CFLAGS += $(CODEC_CFLAGS)
+
+$(BUILD)/obj/%.o: %.c $(BUILD)/features
 	@mkdir -p $(dir $@)
 	$(CC) $(CPPFLAGS) $(CFLAGS) $(ISA_FLAGS_$(call isa_of,$<)) -MMD -MP -c $< -o $@
 
-$(BUILD)/obj/%.o: %.cpp
+$(BUILD)/obj/%.o: %.cpp $(BUILD)/features
 	@mkdir -p $(dir $@)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MMD -MP -c $< -o $@
+
+# Plugins: position-independent objects, linked against their library; the core's functions
+# they call (pl_error, ...) come from the executable (-rdynamic), their own calls stay inside.
+$(BUILD)/obj-pic/%.o: %.cpp $(BUILD)/features
+	@mkdir -p $(dir $@)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -fPIC -MMD -MP -c $< -o $@
+
+$(BUILD)/parlight-opencv.so: $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.o)
+	$(CXX) -shared -Wl,-Bsymbolic $(LDFLAGS) -o $@ $^ $(OPENCV_LIBS) -lm -pthread
+
+$(BUILD)/parlight-libcamera.so: $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.o)
+	$(CXX) -shared -Wl,-Bsymbolic $(LDFLAGS) -o $@ $^ $(LIBCAMERA_LIBS) -lm -pthread
 
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
@@ -129,10 +204,13 @@ demo:
 	@$(MAKE) --no-print-directory $(SEEDED)
 	@BUILD=$(BUILD) tools/demo.sh
 
+# On a cross board the programs run under the board's BOARD_RUNNER (qemu-aarch64 with its CPU
+# model); BOARD_TESTS (a grep pattern on test names) narrows what runs when set.
 test:
-	@tools/install-deps.sh
+	@BOARD=$(BOARD) tools/install-deps.sh
 	@$(MAKE) --no-print-directory all $(SEEDED)
-	@BUILD=$(BUILD) tests/run.sh
+	@BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' \
+	    tests/run.sh
 
 # The camera tests alone: pixel conversions, the QEMU + vivid rig and the QEMU + UVC webcam rig
 # (tools/camrig, ~1.5 + 1 min).
@@ -141,10 +219,18 @@ test-camera:
 	@$(MAKE) --no-print-directory all $(SEEDED)
 	@BUILD=$(BUILD) TEST_FILTER='^test_(camera|pixfmt|v4l2)' tests/run.sh
 
+# parlight fp32/int8 at 1 and 2 threads against PyTorch and ONNX Runtime (npm) on the same weights:
+# a table on stdout and JSON in build/bench/ (docs/PERFORMANCE.md, "Benchmark"; a few minutes).
+bench:
+	@tools/install-deps.sh
+	@$(MAKE) --no-print-directory $(CLI) build/models/seeded-n3.plm
+	@BUILD=$(BUILD) tools/bench/run.sh
+
 format-check:
 	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror
 
 clean:
 	rm -rf build
 
+-include $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.d) $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.d)
 -include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d)

@@ -1,6 +1,9 @@
 // OpenEXR shim (port/hdr_io.h): the only file that sees the OpenEXR C++ API. Every exception is
 // caught here and turned into a pl_status with a message naming the file.
 // The OpenEXR headers are included with -I (not -isystem): keep their own warnings out.
+// Without OpenEXR (PL_HAVE_OPENEXR unset: a cross build, WITH_OPENEXR=0) both functions return
+// PL_E_UNSUPPORTED saying so; .hdr files (port/hdr_io.c) need no library.
+#ifdef PL_HAVE_OPENEXR
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wshadow"
 #include <ImfChannelList.h>
@@ -209,3 +212,26 @@ extern "C" int pl_exr_write_file(const char *path, const pl_image_f32 *img, pl_e
         return pl_error(PL_E_INTERNAL, "%s: OpenEXR: unknown exception", path);
     }
 }
+
+#else // !PL_HAVE_OPENEXR
+
+extern "C" {
+#include "port/hdr_io.h"
+#include "port/util.h"
+}
+
+extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)
+{
+    if (out) *out = pl_image_f32{0, 0, nullptr};
+    return pl_error(PL_E_UNSUPPORTED, "%s: this build has no OpenEXR: cannot read .exr (.hdr works)",
+                    path ? path : "EXR");
+}
+
+extern "C" int pl_exr_write_file(const char *path, const pl_image_f32 *, pl_exr_type)
+{
+    return pl_error(PL_E_UNSUPPORTED,
+                    "%s: this build has no OpenEXR: cannot write .exr (.hdr works)",
+                    path ? path : "EXR");
+}
+
+#endif

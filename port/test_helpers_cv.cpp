@@ -1,4 +1,6 @@
-// TEST HELPERS ONLY: fixture writers for the C tests (see port/test_helpers.h).
+// TEST HELPERS ONLY: fixture writers for the C tests (see port/test_helpers.h). Without OpenCV
+// they return PL_E_UNSUPPORTED and the tests that need them skip.
+#ifdef PL_HAVE_OPENCV
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -54,3 +56,25 @@ extern "C" int pl_test_write_video(const char *path, const char *fourcc, double 
         return pl_error(PL_E_INTERNAL, "%s: exception", path);
     }
 }
+
+#else // !PL_HAVE_OPENCV
+
+extern "C" {
+#include "port/test_helpers.h"
+#include "port/util.h"
+}
+
+extern "C" int pl_test_write_image(const char *path, int, int, int, int, const void *)
+{
+    return pl_error(PL_E_UNSUPPORTED, "%s: this build has no OpenCV to write test images",
+                    path ? path : "image");
+}
+
+extern "C" int pl_test_write_video(const char *path, const char *, double, int, int, int,
+                                   const uint8_t *)
+{
+    return pl_error(PL_E_UNSUPPORTED, "%s: this build has no OpenCV to write test videos",
+                    path ? path : "video");
+}
+
+#endif

@@ -1,5 +1,6 @@
 // Video files through cv::VideoCapture behind the C interface in port/video_cv.h. No exception
-// leaves this file.
+// leaves this file. Without OpenCV (PL_HAVE_OPENCV unset) pl_video_open says so.
+#ifdef PL_HAVE_OPENCV
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -169,3 +170,31 @@ extern "C" void pl_video_close(pl_video *v)
     } catch (...) {
     }
 }
+
+#else // !PL_HAVE_OPENCV
+
+extern "C" {
+#include "port/util.h"
+#include "port/video_cv.h"
+}
+
+extern "C" int pl_video_open(const char *path, pl_video **out)
+{
+    if (out) *out = nullptr;
+    return pl_error(PL_E_UNSUPPORTED, "%s: this build has no OpenCV: cannot read videos",
+                    path ? path : "video");
+}
+
+extern "C" int pl_video_read(pl_video *, pl_image_u8 *, size_t *, int64_t *)
+{
+    return pl_error(PL_E_ARG, "pl_video_read: no video is open (this build has no OpenCV)");
+}
+
+extern "C" int pl_video_fps(const pl_video *, double *)
+{
+    return pl_error(PL_E_ARG, "pl_video_fps: no video is open (this build has no OpenCV)");
+}
+
+extern "C" void pl_video_close(pl_video *) {}
+
+#endif

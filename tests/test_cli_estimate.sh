@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # parlight estimate end to end on the sample frames, and on every kind of bad input: each bad case
 # must give one clear line on stderr and a non-zero exit, never a crash or a hang.
+# needs: opencv (tests/run.sh skips this test in a build without it)
 set -u
 P="$BUILD/parlight"
 M=build/models/seeded-n3.plm

@@ -1,7 +1,8 @@
 /* light/crop + `parlight crop`: camera geometry (rotation, projection, centre pixel), a light at a
  * known direction appears at the right pixel in the crop and, after the rotation, at the same
  * pixel in gt.json; the exposure rule and the response curve; the CLI (single, batch, refusing to
- * overwrite without --force). Run from the repository root with BUILD set (tests/run.sh does). */
+ * overwrite without --force). Run from the repository root with BUILD set (tests/run.sh does).
+ * needs: openexr (tests/run.sh skips this test in a build without it) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -3,6 +3,7 @@
 # `parlight compare` accept; --out refuses to overwrite without --force; bad inputs give exit 1
 # (or 2 for usage) with one line naming the problem, never a crash. Needs $BUILD/parlight and the
 # @pmndrs/assets panoramas (skips with 77 otherwise).
+# needs: openexr (tests/run.sh skips this test in a build without it)
 set -u
 cd "$(dirname "$0")/.."
 BUILD=${BUILD:-build}

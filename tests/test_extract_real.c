@@ -11,7 +11,8 @@
  * the set, median rel <= 0.15.
  * With PL_EXTRACTION_TABLE=FILE the markdown table and the timings are written to FILE
  * (tools/extraction-table.sh puts them into docs/EXTRACTION.md). Exit 77 when no panorama at all
- * is available. Run from the repository root. */
+ * is available. Run from the repository root.
+ * needs: openexr (tests/run.sh skips this test in a build without it) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

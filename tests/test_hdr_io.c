@@ -1,7 +1,8 @@
 /* port/hdr_io: round trips (EXR float/half, RGBE), value sanitising, real files (pmndrs EXR,
  * the shared tiled mip-mapped EXR when present), and bad files made at test time by truncating and
  * patching real ones: each must give a clear error (status + message naming the file), never a
- * crash. Run from the repository root (tests/run.sh does). */
+ * crash. Run from the repository root (tests/run.sh does).
+ * needs: openexr (tests/run.sh skips this test in a build without it) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -2,7 +2,8 @@
  * (gray -> RGB, alpha dropped, 16-bit -> 8-bit rounded, float refused), and bad files made at
  * test time in $PL_TEST_TMP (zero bytes, truncated JPEG/PNG, garbage named .jpg, a text file, a
  * directory, a missing file, headers declaring huge sizes): each must give the expected status and
- * a message naming the file, never a crash. Also buffer reuse and the writer's refusals. */
+ * a message naming the file, never a crash. Also buffer reuse and the writer's refusals.
+ * needs: opencv (tests/run.sh skips this test in a build without it) */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -3,6 +3,7 @@
 # --at, --force, round trips through the files (a map of the lights compared with the lights
 # gives ~0), and bad inputs (missing/malformed JSON, bad flags, existing outputs) -> exit 1/2
 # with a message naming the problem.
+# needs: openexr (tests/run.sh skips this test in a build without it)
 set -u
 BUILD=${BUILD:-build}
 P="$BUILD/parlight"

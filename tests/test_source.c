@@ -1,7 +1,8 @@
 /* port/source: a directory of mixed files (name order differs from creation order, hidden files,
  * a sub-directory, text and zero-byte files as bad frames), empty and all-bad directories, a still
  * image, a small MJPG video written at test time with cv::VideoWriter, and bad paths. Fixtures
- * live in $PL_TEST_TMP. */
+ * live in $PL_TEST_TMP.
+ * needs: opencv (tests/run.sh skips this test in a build without it) */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

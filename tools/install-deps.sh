@@ -2,17 +2,40 @@
 # Installs what parlight needs and is missing: Debian packages with apt-get (through sudo when
 # not root) and the npm packages the tests and sample tools read, into .deps/npm.
 # Does nothing when everything is present. Run by `make demo` and `make test`.
+# With a cross board (`tools/install-deps.sh rpi5`, or BOARD=rpi5 in the environment, as
+# `make test BOARD=rpi5` passes it) it also installs that board's cross toolchain, qemu-user and
+# the target's -dev libraries (Debian multiarch, e.g. libpng-dev:arm64); a host build stays lean.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+BOARD=${1:-${BOARD:-host}}
+[ -f "boards/$BOARD.mk" ] || { echo "install-deps: no boards/$BOARD.mk" >&2; exit 1; }
+# The board's Debian architecture, when it is a cross board (BOARD_DEB_ARCH in its .mk).
+DEB_ARCH=$(sed -n 's/^BOARD_DEB_ARCH *:\?= *\([a-z0-9]*\).*/\1/p' "boards/$BOARD.mk")
 
 PKGS=(
     build-essential pkg-config
-    libopencv-dev          # image and video files (port/image_io.cpp)
+    libjpeg-dev libpng-dev # JPEG and PNG files, MJPEG frames (port/jpeg_codec.c, port/png_codec.c)
+    libopencv-dev          # other image formats and videos (port/image_io.cpp, port/video_cv.cpp)
     libopenexr-dev         # .exr panoramas and maps
     libcamera-dev          # libcamera camera source (port/source_libcamera.cpp)
     python3-torch python3-torchvision python3-numpy python3-pil   # reference model, exporter, golden tests
+    nodejs python3-onnx    # make bench: ONNX Runtime peer (npm onnxruntime-node under node) and its ONNX models (tools/bench)
+    time                   # make bench: /usr/bin/time -v for the peak RSS of parlight estimate
     qemu-system-x86 kmod cpio xz-utils   # camera rig VM (tools/camrig; kernel + busybox are apt-get downloaded, not installed)
 )
+
+CROSS_ARCH=""
+case "$DEB_ARCH" in
+    "") ;;
+    arm64)
+        CROSS_ARCH=arm64
+        PKGS+=(
+            gcc-aarch64-linux-gnu g++-aarch64-linux-gnu libc6-dev-arm64-cross  # cross toolchain
+            qemu-user                                     # runs the board's tests (qemu-aarch64)
+            libjpeg62-turbo-dev:arm64 libpng-dev:arm64 zlib1g-dev:arm64  # the target's codecs
+        ) ;;
+    *) echo "install-deps: boards/$BOARD.mk: no cross packages known for '$DEB_ARCH'" >&2; exit 1 ;;
+esac
 
 missing=()
 for p in "${PKGS[@]}"; do
@@ -28,6 +51,10 @@ if [ ${#missing[@]} -gt 0 ]; then
         SUDO=sudo
     fi
     export DEBIAN_FRONTEND=noninteractive
+    if [ -n "$CROSS_ARCH" ] && ! dpkg --print-foreign-architectures | grep -qx "$CROSS_ARCH"; then
+        echo "install-deps: adding the $CROSS_ARCH architecture for the $BOARD libraries" >&2
+        $SUDO dpkg --add-architecture "$CROSS_ARCH"
+    fi
     $SUDO apt-get update -qq
     $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi

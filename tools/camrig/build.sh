@@ -149,6 +149,10 @@ if [ "$SHARE" = 9p ]; then
 fi
 mkdir -p "$PAYLOAD/opt/parlight"
 cp "$PARLIGHT" "$PAYLOAD/opt/parlight/parlight"
+# Plugins (libcamera, OpenCV: port/plugin.h) are loaded from beside the binary.
+PLUGINS=()
+for so in "$BUILD_DIR"/parlight-*.so; do [ -f "$so" ] && PLUGINS+=("$so"); done
+[ ${#PLUGINS[@]} -eq 0 ] || cp "${PLUGINS[@]}" "$PAYLOAD/opt/parlight/"
 if [ -n "$FRAMES_DIR" ]; then
     cp "$HELPER" "$PAYLOAD/opt/parlight/uvc-gadget"
     mkdir -p "$PAYLOAD/opt/parlight/frames" "$PAYLOAD/opt/parlight/expected"
@@ -158,7 +162,7 @@ if [ -n "$FRAMES_DIR" ]; then
 else
     cp "$HELPER" "$PAYLOAD/opt/parlight/vivid_ctl"
 fi
-for bin in "$PARLIGHT" "$HELPER"; do
+for bin in "$PARLIGHT" "$HELPER" ${PLUGINS[@]+"${PLUGINS[@]}"}; do
     ldd "$bin" | awk '$2 == "=>" && $3 ~ /^\// {print $3} $1 ~ /^\// {print $1}'
 done | sort -u | while read -r lib; do
     mkdir -p "$PAYLOAD$(dirname "$lib")"

@@ -1,0 +1,22 @@
+# NVIDIA Jetson Orin (Nano/NX/AGX): Cortex-A78AE (Armv8.2-A, NEON + dotprod; no i8mm: that is
+# Armv8.6), 6 to 12 cores (6 on the Orin Nano), CSI cameras through V4L2 (Argus aside).
+# Cross-built with gcc-aarch64-linux-gnu. qemu 7.2 has no Cortex-A78 model: tests run on
+# neoverse-n1, the closest it has (Armv8.2-A + dotprod, no i8mm, the A76's core).
+BOARD_ARCH     := aarch64
+BOARD_CPU      := cortex-a78ae
+CROSS_COMPILE  ?= aarch64-linux-gnu-
+CC             := $(CROSS_COMPILE)gcc
+CXX            := $(CROSS_COMPILE)g++
+AR             := $(CROSS_COMPILE)ar
+BOARD_CFLAGS   := -march=armv8.2-a -mtune=cortex-a78ae
+BOARD_THREADS  := 6
+BOARD_INPUT    := 192x256
+BOARD_CAMERA   := v4l2:/dev/video0
+BOARD_PKG_CONFIG_LIBDIR := /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig
+BOARD_DEB_ARCH := arm64
+BOARD_QEMU_CPU := neoverse-n1
+BOARD_RUNNER   := qemu-aarch64 -cpu $(BOARD_QEMU_CPU) -L /usr/aarch64-linux-gnu
+# Debian 12's aarch64 gcc 12.2 crashes (ICE in vect_transform_reduction) when it vectorises an
+# fmax() reduction over doubles, a pattern the tests use (test_sg.c, test_eval.c): no loop
+# vectorisation for the test programs only; the library and kernels keep it.
+BOARD_TEST_CFLAGS := -fno-tree-loop-vectorize

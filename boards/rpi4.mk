@@ -1,0 +1,25 @@
+# Raspberry Pi 4: Cortex-A72 (Armv8.0-A, NEON; no dotprod, no i8mm), 4 cores.
+# Cross-built on the host with Debian's gcc-aarch64-linux-gnu; tests run under qemu-aarch64
+# with the same CPU model (make test BOARD=rpi4). See docs/PORTING.md.
+BOARD_ARCH     := aarch64
+BOARD_CPU      := cortex-a72
+CROSS_COMPILE  ?= aarch64-linux-gnu-
+CC             := $(CROSS_COMPILE)gcc
+CXX            := $(CROSS_COMPILE)g++
+AR             := $(CROSS_COMPILE)ar
+# Baseline ISA of the board for the whole build; kernels/arm/*__dotprod.c / __i8mm.c add their
+# own -march per file and are only dispatched when the CPU reports the feature.
+BOARD_CFLAGS   := -march=armv8-a+crc -mtune=cortex-a72
+BOARD_THREADS  := 4
+BOARD_INPUT    := 192x256
+BOARD_CAMERA   := v4l2:/dev/video0
+# The target's libraries (Debian multiarch arm64 -dev packages) decide the optional features.
+BOARD_PKG_CONFIG_LIBDIR := /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig
+BOARD_DEB_ARCH := arm64
+# How tests run on this machine: user-mode emulation of the board's CPU.
+BOARD_QEMU_CPU := cortex-a72
+BOARD_RUNNER   := qemu-aarch64 -cpu $(BOARD_QEMU_CPU) -L /usr/aarch64-linux-gnu
+# Debian 12's aarch64 gcc 12.2 crashes (ICE in vect_transform_reduction) when it vectorises an
+# fmax() reduction over doubles, a pattern the tests use (test_sg.c, test_eval.c): no loop
+# vectorisation for the test programs only; the library and kernels keep it.
+BOARD_TEST_CFLAGS := -fno-tree-loop-vectorize
