@@ -1,16 +1,45 @@
 /* parlight info --model M.plm: what a model file holds. */
 #include <getopt.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "app/commands.h"
+#include "kernels/dispatch.h"
 #include "parlight.h"
 
 static void help(FILE *f)
 {
     fprintf(f, "usage: parlight info --model M.plm\n\n"
                "Prints the model's architecture, precision, number of lights N, input size,\n"
-               "parameter count, file size, working memory and provenance.\n");
+               "parameter count, file size, working memory and provenance, then the\n"
+               "instruction-set path the kernels run on (the best this CPU supports, or\n"
+               "PARLIGHT_ISA=ref|avx2|avxvnni|avx512vnni|...) and, per kernel slot of the int8\n"
+               "and fp32 tables, the implementation used.\n");
+}
+
+/* The selected path, the paths this CPU runs, and every slot of both kernel tables. */
+static int print_kernels(void)
+{
+    const pl_kernels *k;
+    if (pl_kernels_get(&k) < 0) {
+        fprintf(stderr, "parlight info: %s\n", pl_last_error());
+        return 1;
+    }
+    printf("isa path     %s (PARLIGHT_ISA %s; this CPU runs:", pl_isa_name(k->isa),
+           getenv("PARLIGHT_ISA") && *getenv("PARLIGHT_ISA") ? "set" : "unset, best chosen");
+    for (int i = 0; i < PL_ISA_COUNT; i++)
+        if (pl_isa_supported((pl_isa)i)) printf(" %s", pl_isa_name((pl_isa)i));
+    printf(")\n");
+    enum { MAX_SLOTS = 16 };
+    const char *op[MAX_SLOTS], *impl[MAX_SLOTS];
+    int n = pl_kernels_s8_list(&k->s8, op, impl, MAX_SLOTS);
+    for (int i = 0; i < n && i < MAX_SLOTS; i++)
+        printf("%-12s %-28s %s\n", i ? "" : "kernels s8", op[i], impl[i]);
+    n = pl_kernels_f32_list(&k->f32, op, impl, MAX_SLOTS);
+    for (int i = 0; i < n && i < MAX_SLOTS; i++)
+        printf("%-12s %-28s %s\n", i ? "" : "kernels f32", op[i], impl[i]);
+    return 0;
 }
 
 int cmd_info(int argc, char **argv)
@@ -57,5 +86,5 @@ int cmd_info(int argc, char **argv)
            (double)info.arena_bytes / (1024.0 * 1024.0));
     printf("provenance   %s\n", info.provenance[0] ? info.provenance : "(none recorded)");
     pl_model_free(m);
-    return 0;
+    return print_kernels();
 }

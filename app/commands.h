@@ -13,8 +13,10 @@
     X(compare, "RMSE and scale-invariant RMSE between two lightings (sphere renders)")        \
     X(extract, "ground-truth lights + ambient from an HDR panorama (JSON)")                    \
     X(crop, "perspective LDR crops of an HDR panorama with their ground-truth lights")          \
+    X(eval, "score a model and baselines on crops of a folder of HDR panoramas")               \
     X(quantize, "float model -> int8 model calibrated on frames (minmax/percentile/entropy/mse)")  \
-    X(qcheck, "int8 vs float: per-layer SQNR/cosine and end-to-end light errors")
+    X(qcheck, "int8 vs float: per-layer SQNR/cosine and end-to-end light errors")                \
+    X(bench, "time estimates on one frame: median/min/max ms, ISA, GMAC/s, peak RSS")
 
 #define PL_DECLARE(name, summary) int cmd_##name(int argc, char **argv);
 PL_COMMANDS(PL_DECLARE)

@@ -14,6 +14,17 @@
  * pool, then the 1x1 convolution (pool and conv commute: 4x less work), writing into the next
  * block's buffer at channel 0. After loading, estimates allocate nothing.
  *
+ * Kernels come from the dispatch table (kernels/dispatch.h, PARLIGHT_ISA). On a path with packed
+ * fp32 kernels (kernels/kernels_f32.h) every convolution's weights are packed once at load into
+ * one buffer, and each convolution runs as a packed GEMM: the dense layer's norm1 BN+ReLU is
+ * applied while its 1x1 convolution builds its input tiles, so T1 serves only the transitions
+ * and norm5. The GEMM's per-thread scratch (implicit im2col tiles, 46 KiB a thread) is one more
+ * buffer, sized at load for the largest convolution and grown by pl_model_set_threads. The
+ * packed weights (~28 MB at 192x256) come on top of the mapped file; pl_model_get_info's
+ * arena_bytes counts arena, scratch and packed weights. On the reference path
+ * the kernels of kernels/ref/ run as they are. Outputs do not depend on the thread count on
+ * either path (each output's summation order is fixed by the kernel and its K).
+ *
  * precision=int8 files pass the same metadata checks and are then handed to the int8 executor
  * (model/net_s8.c); the public functions delegate to it. pl_model_set_observer
  * (model/observer.h) reports each layer's output, for calibration and `parlight qcheck`. */
@@ -23,6 +34,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
 #include "model/arch.h"
 #include "model/net_s8.h"
@@ -35,11 +47,13 @@
 struct dense_layer {
     int cin;
     const float *n1_scale, *n1_shift, *c1_w, *c1_b, *c2_w;
+    pl_f32_conv c1, c2; /* packed paths: norm1 + conv1, conv2 */
 };
 
 struct transition {
     int cin;
     const float *scale, *shift, *w;
+    pl_f32_conv conv; /* packed paths */
 };
 
 struct pl_model {
@@ -55,6 +69,14 @@ struct pl_model {
     const float *n5_scale, *n5_shift, *fc_w, *fc_b;
     const float *dir_w, *dir_b, *size_w, *size_b, *rgb_w, *rgb_b, *amb_w, *amb_b;
     const float *d1_w, *d1_b, *d2_w, *d2_b;
+
+    const pl_kernels *kern;
+    pl_f32_conv conv0;  /* packed paths */
+    float *wpack;       /* packed paths: every convolution's packed weights */
+    size_t wpack_floats;
+    float *scratch;     /* packed paths: scratch_floats per pool thread */
+    size_t scratch_floats;
+    int scratch_threads;
 
     float *arena;
     size_t arena_floats;
@@ -266,6 +288,81 @@ static int plan_arena(pl_model *m)
     return PL_OK;
 }
 
+/* Per-thread GEMM scratch for `threads` threads (packed paths). */
+static int make_scratch(pl_model *m, int threads)
+{
+    if (!m->kern->f32.packed || threads <= m->scratch_threads) return PL_OK;
+    size_t bytes;
+    if (!pl_mul_size(m->scratch_floats * sizeof(float), (size_t)threads, &bytes))
+        return pl_error(PL_E_NOMEM, "GEMM scratch size overflows");
+    float *p = aligned_alloc(64, bytes);
+    if (!p)
+        return pl_error(PL_E_NOMEM, "cannot allocate %zu bytes of GEMM scratch for %d threads",
+                        bytes, threads);
+    free(m->scratch);
+    m->scratch = p;
+    m->scratch_threads = threads;
+    return PL_OK;
+}
+
+/* Describes every convolution (shapes at this model's input size) and, on packed paths, packs
+ * their weights and sizes the scratch. */
+static int prepare_convs(pl_model *m)
+{
+    int h = m->in_h / 2, w = m->in_w / 2;
+    const nn_conv_params c0 = {3, m->in_h, m->in_w, 64, h, w, 7, 7, 2, 3, 1};
+    m->conv0 = (pl_f32_conv){c0, m->conv0_w, m->conv0_b, NULL, NULL};
+    h /= 2;
+    w /= 2;
+    int li = 0;
+    for (int b = 0; b < N_BLOCKS; b++) {
+        for (int l = 0; l < block_layers[b]; l++, li++) {
+            struct dense_layer *L = &m->layers[li];
+            const nn_conv_params p1 = {L->cin, h, w, BOTTLENECK, h, w, 1, 1, 1, 0, 1};
+            const nn_conv_params p2 = {BOTTLENECK, h, w, GROWTH, h, w, 3, 3, 1, 1, 0};
+            L->c1 = (pl_f32_conv){p1, L->c1_w, L->c1_b, L->n1_scale, L->n1_shift};
+            L->c2 = (pl_f32_conv){p2, L->c2_w, NULL, NULL, NULL};
+        }
+        if (b < N_BLOCKS - 1) {
+            struct transition *T = &m->trans[b];
+            h /= 2;
+            w /= 2;
+            const nn_conv_params pt = {T->cin, h, w, T->cin / 2, h, w, 1, 1, 1, 0, 0};
+            T->conv = (pl_f32_conv){pt, T->w, NULL, NULL, NULL};
+        }
+    }
+    if (!m->kern->f32.packed) return PL_OK;
+
+    pl_f32_conv *all[1 + MAX_LAYERS * 2 + N_BLOCKS];
+    int n = 0;
+    all[n++] = &m->conv0;
+    for (int i = 0; i < li; i++) {
+        all[n++] = &m->layers[i].c1;
+        all[n++] = &m->layers[i].c2;
+    }
+    for (int b = 0; b < N_BLOCKS - 1; b++) all[n++] = &m->trans[b].conv;
+    size_t total = 0;
+    for (int i = 0; i < n; i++) {
+        total += (pl_f32_packed_weights_floats(&all[i]->p) + 15) & ~(size_t)15;
+        const size_t sf = pl_f32_conv_scratch_floats(&all[i]->p);
+        if (sf > m->scratch_floats) m->scratch_floats = sf;
+    }
+    size_t bytes;
+    if (!pl_mul_size(total, sizeof(float), &bytes))
+        return pl_error(PL_E_NOMEM, "packed weights size overflows");
+    m->wpack = aligned_alloc(64, bytes);
+    if (!m->wpack)
+        return pl_error(PL_E_NOMEM, "cannot allocate %zu bytes for the packed weights", bytes);
+    m->wpack_floats = total;
+    float *dst = m->wpack;
+    for (int i = 0; i < n; i++) {
+        pl_f32_pack_weights(&all[i]->p, all[i]->w, dst);
+        all[i]->w = dst;
+        dst += (pl_f32_packed_weights_floats(&all[i]->p) + 15) & ~(size_t)15;
+    }
+    return make_scratch(m, 1);
+}
+
 int pl_model_load(const char *path, pl_model **out)
 {
     if (!out) return pl_error(PL_E_ARG, "pl_model_load: out is NULL");
@@ -318,6 +415,9 @@ int pl_model_load(const char *path, pl_model **out)
         m->arena_floats = (pl_s8_arena_bytes(m->s8) + sizeof(float) - 1) / sizeof(float);
     } else if ((rc = bind_tensors(m)) < 0 || (rc = plan_arena(m)) < 0) {
         goto fail;
+    } else if ((rc = pl_kernels_get(&m->kern)) < 0 || (rc = prepare_convs(m)) < 0) {
+        pl_error_prefix(rc, "%s", f->path);
+        goto fail;
     }
     if ((rc = pl_pool_create(1, &m->pool)) < 0) goto fail;
     *out = m;
@@ -332,6 +432,8 @@ void pl_model_free(pl_model *m)
     if (!m) return;
     pl_s8_free(m->s8);
     pl_pool_destroy(m->pool);
+    free(m->wpack);
+    free(m->scratch);
     free(m->arena);
     pl_plm_close(&m->file);
     free(m);
@@ -349,7 +451,10 @@ int pl_model_get_info(const pl_model *m, pl_model_info *info)
     info->input_w = m->in_w;
     info->n_params = m->n_params;
     info->file_size = (int64_t)m->file.map_size;
-    info->arena_bytes = m->arena_floats * sizeof(float);
+    /* fp32 on a packed path: the arena, the GEMM scratch and the packed weights */
+    info->arena_bytes =
+        (m->arena_floats + m->scratch_floats * (size_t)m->scratch_threads + m->wpack_floats) *
+        sizeof(float);
     return PL_OK;
 }
 
@@ -360,6 +465,10 @@ int pl_model_set_threads(pl_model *m, int n)
     pl_pool *p;
     int rc = pl_pool_create(n, &p);
     if (rc < 0) return rc;
+    if (!m->s8 && (rc = make_scratch(m, n)) < 0) {
+        pl_pool_destroy(p);
+        return rc;
+    }
     pl_pool_destroy(m->pool);
     m->pool = p;
     return PL_OK;
@@ -399,6 +508,7 @@ enum op { OP_CONV, OP_BN_RELU, OP_MAXPOOL, OP_AVGPOOL, OP_FC };
 /* One kernel call, split over output channels by the pool. */
 struct job {
     enum op op;
+    const pl_kernels_f32 *k;
     const void *params;
     const float *in, *w, *b, *shift;
     float *out;
@@ -408,33 +518,84 @@ struct job {
 static void run_job(void *ctx, int begin, int end)
 {
     const struct job *j = ctx;
+    const pl_kernels_f32 *k = j->k;
     switch (j->op) {
     case OP_CONV: nn_conv2d_f32__ref(j->params, j->in, j->w, j->b, j->out, begin, end); break;
-    case OP_BN_RELU: nn_bn_relu_f32__ref(j->in, j->w, j->shift, j->hw, j->out, begin, end); break;
-    case OP_MAXPOOL: nn_maxpool2d_f32__ref(j->params, j->in, j->out, begin, end); break;
-    case OP_AVGPOOL: nn_avgpool2d_f32__ref(j->params, j->in, j->out, begin, end); break;
-    case OP_FC: nn_fc_f32__ref(j->in, j->n_in, j->w, j->b, j->relu, j->out, begin, end); break;
+    case OP_BN_RELU: k->bn_relu(j->in, j->w, j->shift, j->hw, j->out, begin, end); break;
+    case OP_MAXPOOL: k->maxpool(j->params, j->in, j->out, begin, end); break;
+    case OP_AVGPOOL: k->avgpool(j->params, j->in, j->out, begin, end); break;
+    case OP_FC: k->fc(j->in, j->n_in, j->w, j->b, j->relu, j->out, begin, end); break;
     }
 }
 
-static void conv(pl_model *m, const nn_conv_params *p, const float *in, const float *w,
-                 const float *b, float *out)
+/* A packed convolution split over the pool: one item per thread (its scratch), each taking a
+ * contiguous share of (tile, panel group) units. Panels are split only when there are too few
+ * tiles to share evenly (block 4 has one), since each group rebuilds the tile's B block. */
+struct gemm_job {
+    const pl_kernels_f32 *k;
+    const pl_f32_conv *c;
+    const float *in;
+    float *out, *scratch;
+    size_t scratch_floats;
+    int tiles, panels, groups, items;
+};
+
+static void run_gemm(void *ctx, int begin, int end)
 {
-    struct job j = {.op = OP_CONV, .params = p, .in = in, .w = w, .b = b, .out = out};
-    pl_pool_for(m->pool, p->out_c, run_job, &j);
+    const struct gemm_job *j = ctx;
+    const long units = (long)j->tiles * j->groups;
+    for (int i = begin; i < end; i++) {
+        float *scratch = j->scratch + (size_t)i * j->scratch_floats;
+        const int u0 = (int)(units * i / j->items), u1 = (int)(units * (i + 1) / j->items);
+        if (j->groups == 1) {
+            if (u0 < u1) j->k->conv(j->c, j->in, j->out, scratch, u0, u1, 0, j->panels);
+            continue;
+        }
+        for (int u = u0; u < u1; u++) {
+            const int t = u / j->groups, g = u % j->groups;
+            j->k->conv(j->c, j->in, j->out, scratch, t, t + 1, j->panels * g / j->groups,
+                       j->panels * (g + 1) / j->groups);
+        }
+    }
 }
 
 static void bn_relu(pl_model *m, const float *in, const float *scale, const float *shift, int c,
                     int hw, float *out)
 {
-    struct job j = {.op = OP_BN_RELU, .in = in, .w = scale, .shift = shift, .hw = hw, .out = out};
+    struct job j = {.op = OP_BN_RELU, .k = &m->kern->f32, .in = in, .w = scale, .shift = shift,
+                    .hw = hw, .out = out};
     pl_pool_for(m->pool, c, run_job, &j);
+}
+
+/* One convolution (prepare_convs): packed GEMM, or on the reference path the optional
+ * pre-activation into T1 and then nn_conv2d_f32__ref. */
+static void conv(pl_model *m, const pl_f32_conv *c, const float *in, float *out)
+{
+    const nn_conv_params *p = &c->p;
+    if (m->kern->f32.packed) {
+        const int threads = pl_pool_threads(m->pool);
+        const int tiles = pl_f32_conv_tiles(p), panels = pl_f32_conv_panels(p);
+        int groups = 1;
+        if (threads > 1 && tiles % threads && tiles < 4 * threads)
+            groups = threads < panels ? threads : panels;
+        struct gemm_job g = {&m->kern->f32, c,      in,     out,     m->scratch,
+                             m->scratch_floats,     tiles,  panels,  groups,
+                             threads};
+        pl_pool_for(m->pool, threads, run_gemm, &g);
+        return;
+    }
+    if (c->in_scale) {
+        bn_relu(m, in, c->in_scale, c->in_shift, p->in_c, p->in_h * p->in_w, m->t1);
+        in = m->t1;
+    }
+    struct job j = {.op = OP_CONV, .params = p, .in = in, .w = c->w, .b = c->bias, .out = out};
+    pl_pool_for(m->pool, p->out_c, run_job, &j);
 }
 
 static void fc(pl_model *m, const float *in, int n_in, const float *w, const float *b, int n_out,
                int relu, float *out)
 {
-    struct job j = {.op = OP_FC, .in = in, .n_in = n_in, .w = w, .b = b, .relu = relu, .out = out};
+    struct job j = {.op = OP_FC, .k = &m->kern->f32, .in = in, .n_in = n_in, .w = w, .b = b, .relu = relu, .out = out};
     pl_pool_for(m->pool, n_out, run_job, &j);
 }
 
@@ -452,15 +613,14 @@ static float softplus(float x)
 static void forward(pl_model *m)
 {
     int h = m->in_h / 2, w = m->in_w / 2;
-    nn_conv_params c0 = {3, m->in_h, m->in_w, 64, h, w, 7, 7, 2, 3, 1};
-    conv(m, &c0, m->x_in, m->conv0_w, m->conv0_b, m->buf_a);
+    conv(m, &m->conv0, m->x_in, m->buf_a);
     observe(m, "conv0", m->buf_a, 64, h, w);
 
     nn_pool_params p0 = {64, h, w, h / 2, w / 2, 3, 2, 1};
     h /= 2;
     w /= 2;
     float *cur = m->buf_b, *next = m->buf_a;
-    struct job mp = {.op = OP_MAXPOOL, .params = &p0, .in = m->buf_a, .out = cur};
+    struct job mp = {.op = OP_MAXPOOL, .k = &m->kern->f32, .params = &p0, .in = m->buf_a, .out = cur};
     pl_pool_for(m->pool, 64, run_job, &mp);
 
     int li = 0;
@@ -469,11 +629,8 @@ static void forward(pl_model *m)
         const int hw = h * w;
         for (int l = 0; l < block_layers[b]; l++, li++) {
             const struct dense_layer *L = &m->layers[li];
-            bn_relu(m, cur, L->n1_scale, L->n1_shift, L->cin, hw, m->t1);
-            nn_conv_params c1 = {L->cin, h, w, BOTTLENECK, h, w, 1, 1, 1, 0, 1};
-            conv(m, &c1, m->t1, L->c1_w, L->c1_b, m->t2);
-            nn_conv_params c2 = {BOTTLENECK, h, w, GROWTH, h, w, 3, 3, 1, 1, 0};
-            conv(m, &c2, m->t2, L->c2_w, NULL, cur + (size_t)L->cin * hw);
+            conv(m, &L->c1, cur, m->t2);
+            conv(m, &L->c2, m->t2, cur + (size_t)L->cin * hw);
             if (m->observer) {
                 snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
                 observe(m, name, m->t2, BOTTLENECK, h, w);
@@ -485,12 +642,12 @@ static void forward(pl_model *m)
             const struct transition *T = &m->trans[b];
             bn_relu(m, cur, T->scale, T->shift, T->cin, hw, m->t1);
             nn_pool_params ap = {T->cin, h, w, h / 2, w / 2, 2, 2, 0};
-            struct job j = {.op = OP_AVGPOOL, .params = &ap, .in = m->t1, .out = m->t2};
+            struct job j = {.op = OP_AVGPOOL, .k = &m->kern->f32, .params = &ap, .in = m->t1,
+                            .out = m->t2};
             pl_pool_for(m->pool, T->cin, run_job, &j);
             h /= 2;
             w /= 2;
-            nn_conv_params tc = {T->cin, h, w, T->cin / 2, h, w, 1, 1, 1, 0, 0};
-            conv(m, &tc, m->t2, T->w, NULL, next);
+            conv(m, &T->conv, m->t2, next);
             if (m->observer) {
                 snprintf(name, sizeof name, "transition%d.conv", b + 1);
                 observe(m, name, next, T->cin / 2, h, w);

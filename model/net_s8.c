@@ -25,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
@@ -46,6 +47,8 @@ struct s8_layer {
     nn_conv_s8_params p;
     nn_dims in, filt, out;
     int in_stride, out_stride;
+    pl_s8_conv pc; /* the packed path's plan and weights (SIMD tables) */
+    pl_s8_a_kind a_kind; /* how the packed path builds its input */
 };
 
 struct s8_dense {
@@ -76,7 +79,13 @@ struct pl_s8 {
     const float *d1_b, *d2_w, *d2_b;
     int32_t *qbuf;
 
+    const pl_kernels *k; /* the kernel table this executor runs */
+    void *packed;        /* weights packed for k (SIMD paths), one allocation at load */
+    size_t packed_bytes;
+    size_t a1_bytes, a2_bytes; /* A buffers: 1x1 / fc inputs, k x k inputs */
+
     uint8_t *arena;
+    uint8_t *a1, *a2;
     size_t arena_bytes;
     int8_t *buf_a, *buf_b, *t, *zq, *hq;
     float *fin, *z, *h, *out_dir, *out_size, *out_rgb, *out_amb, *dist_in, *dist_h, *out_dist;
@@ -352,6 +361,7 @@ static int bind_all(pl_s8 *s)
         if (bind_layer(b, "fc", 2, (const int[4]){sh->fc_n, zl, 0, 0}, 1, F) < 0) return b->rc;
         conv_params(F, 0, 1, 1, 0);
         F->in = (nn_dims){1, 1, 1, zl};
+        F->filt = (nn_dims){sh->fc_n, 1, 1, zl};
         F->out = (nn_dims){1, 1, 1, sh->fc_n};
         const nn_fc_s8_params fp = {0, 0, F->out_zp, F->out_zp, 127, 1};
         int rc = nn_fc_s8_check(&fp, 1, zl, zl, sh->fc_n, sh->fc_n);
@@ -408,6 +418,70 @@ static size_t max_sz(size_t a, size_t b)
     return a > b ? a : b;
 }
 
+/* Every int8 conv / fc in forward order, each with how its A is built: a_rows for the stem (3
+ * channels: the 7 horizontal taps folded into 21 channels), a_pack for the 1x1s and the fc,
+ * a_pad for the 3x3s. */
+static int all_layers(pl_s8 *s, struct s8_layer **L)
+{
+    int n = 0;
+    L[n] = &s->conv0;
+    L[n++]->a_kind = PL_S8_A_ROWS;
+    int li = 0;
+    for (int blk = 0; blk < N_BLOCKS; blk++) {
+        for (int l = 0; l < block_layers[blk]; l++, li++) {
+            L[n] = &s->layers[li].c1;
+            L[n++]->a_kind = PL_S8_A_PACK;
+            L[n] = &s->layers[li].c2;
+            L[n++]->a_kind = PL_S8_A_PAD;
+        }
+        if (blk < N_BLOCKS - 1) {
+            L[n] = &s->trans[blk].conv;
+            L[n++]->a_kind = PL_S8_A_PACK;
+        }
+    }
+    if (!s->fc_wf) {
+        L[n] = &s->fc;
+        L[n++]->a_kind = PL_S8_A_PACK;
+    }
+    return n;
+}
+
+/* SIMD tables: every conv's weights packed once for the path (kernels/kernels_s8.h), into one
+ * allocation; the sizes of the A buffers the arena needs. */
+static int pack_all(pl_s8 *s)
+{
+    if (pl_kernels_get(&s->k) < 0) return pl_error_prefix(PL_E_UNSUPPORTED, "%s", s->file->path);
+    if (!s->k->s8.packed) return PL_OK;
+    enum { MAXL = 1 + 2 * MAX_LAYERS + N_BLOCKS };
+    struct s8_layer *L[MAXL];
+    const int n = all_layers(s, L);
+    size_t total = 0;
+    for (int i = 0; i < n; i++) {
+        const nn_per_channel_quant q = {L[i]->mult, L[i]->shift};
+        pl_s8_conv_init(&L[i]->pc, &L[i]->p, &q, &L[i]->in, &L[i]->filt, &L[i]->out,
+                        L[i]->a_kind);
+        total += (pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout) + 63) & ~(size_t)63;
+        size_t *a = L[i]->a_kind == PL_S8_A_PACK ? &s->a1_bytes : &s->a2_bytes;
+        *a = max_sz(*a, pl_s8_conv_a_size(&L[i]->pc));
+    }
+    s->packed = aligned_alloc(64, total);
+    if (!s->packed)
+        return pl_error(PL_E_NOMEM, "cannot allocate %zu bytes of packed weights", total);
+    s->packed_bytes = total;
+    uint8_t *p = s->packed;
+    for (int i = 0; i < n; i++) {
+        s->k->s8.pack(&L[i]->pc, L[i]->w, L[i]->bias, p);
+        p += (pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout) + 63) & ~(size_t)63;
+    }
+    for (int i = 0; i < MAX_LAYERS; i++) {
+        /* a dense layer's 1x1 writes the 3x3's A: u8, rows w + 2 apart (forward()) */
+        pl_s8_conv *c1 = &s->layers[i].c1.pc;
+        c1->out_xor = 0x80;
+        c1->out_pitch = c1->out_w + 2;
+    }
+    return PL_OK;
+}
+
 static size_t up64(size_t n)
 {
     return (n + 63) & ~(size_t)63;
@@ -428,8 +502,8 @@ static int plan_arena(pl_s8 *s)
     const size_t zl = (size_t)s->z_len, fc = (size_t)s->sh.fc_n;
     const size_t floats =
         zl + fc + 3 * N + N + 3 * N + 3 + zl + 3 * N + (size_t)s->sh.dist_hidden + N;
-    const size_t total =
-        up64(a) + up64(b) + up64(t) + up64(zl) + up64(fc) + up64(floats * sizeof(float));
+    const size_t total = up64(a) + up64(b) + up64(t) + up64(zl) + up64(fc) +
+                         up64(floats * sizeof(float)) + up64(s->a1_bytes) + up64(s->a2_bytes);
     s->arena = aligned_alloc(64, total);
     if (!s->arena) return pl_error(PL_E_NOMEM, "cannot allocate the %zu-byte arena", total);
     s->arena_bytes = total;
@@ -463,6 +537,12 @@ static int plan_arena(pl_s8 *s)
     s->dist_h = q;
     q += s->sh.dist_hidden;
     s->out_dist = q;
+    q += N;
+    p = (uint8_t *)q;
+    p = s->arena + up64((size_t)(p - s->arena));
+    s->a1 = s->a1_bytes ? p : NULL;
+    p += up64(s->a1_bytes);
+    s->a2 = s->a2_bytes ? p : NULL;
     return PL_OK;
 }
 
@@ -474,6 +554,7 @@ int pl_s8_load(const pl_plm *file, const pl_net_shape *shape, pl_s8 **out)
     s->file = file;
     s->sh = *shape;
     int rc = bind_all(s);
+    if (rc == PL_OK) rc = pack_all(s);
     if (rc == PL_OK) rc = plan_arena(s);
     if (rc < 0) {
         pl_s8_free(s);
@@ -487,6 +568,7 @@ void pl_s8_free(pl_s8 *s)
 {
     if (!s) return;
     free(s->qbuf);
+    free(s->packed);
     free(s->d1_w);
     free(s->arena);
     free(s->obs_buf);
@@ -537,7 +619,14 @@ enum s8_op {
     S8_AVGPOOL,
     S8_CLAMP,
     S8_FC,
-    S8_FC_F32
+    S8_FC_F32,
+    S8_A_PACK, /* packed path: A from a 1x1 / fc input (pixels) */
+    S8_A_PAD,  /* packed path: A from a k x k input (rows) */
+    S8_A_ROWS, /* packed path: A from a k x k input with the row taps folded (rows) */
+    S8_RUN,    /* packed path: the convolution (pixels, or channels when j->by_channel) */
+    S8_MAXPOOL_P, /* packed path: pools and clamp over pixels */
+    S8_AVGPOOL_P,
+    S8_CLAMP_P,
 };
 
 struct s8_job {
@@ -549,9 +638,15 @@ struct s8_job {
     int8_t *out;
     int in_stride, out_stride;
     const int8_t *lo, *hi;
+    const pl_kernels_s8 *k;
     const float *fin, *fw, *fb;
     float *fout;
     int n_in;
+    const uint8_t *a;
+    uint8_t *a_out;
+    int by_channel;
+    int fuse; /* S8_A_PACK / S8_AVGPOOL_P: run L's convolution on the same pixels right after
+                 (a 1x1's output pixel reads only its own A pixel: no barrier needed) */
 };
 
 static void run_s8(void *ctx, int begin, int end)
@@ -570,6 +665,42 @@ static void run_s8(void *ctx, int begin, int end)
     }
     if (j->op == S8_FC_F32) {
         nn_fc_f32__ref(j->fin, j->n_in, j->fw, j->fb, 1, j->fout, begin, end);
+        return;
+    }
+    if (j->op == S8_MAXPOOL_P) {
+        j->k->maxpool(j->pool, j->in_dims, j->in, j->in_stride, j->out_dims, j->out, j->out_stride,
+                      begin, end);
+        return;
+    }
+    if (j->op == S8_AVGPOOL_P) {
+        j->k->avgpool(j->pool, j->in_dims, j->in, j->in_stride, j->lo, j->hi, j->out_dims,
+                      j->a_out, j->out_stride, 0x80, begin, end);
+        if (j->fuse) j->k->run(&L->pc, j->a_out, j->out, L->out_stride, begin, end, 0, L->pc.out_c);
+        return;
+    }
+    if (j->op == S8_CLAMP_P) {
+        j->k->clamp(j->in_dims, j->out, j->out_stride, j->lo, j->hi, begin, end);
+        return;
+    }
+    if (j->op == S8_A_PACK || j->op == S8_A_PAD || j->op == S8_A_ROWS || j->op == S8_RUN) {
+        const pl_kernels_s8 *k = j->k;
+        const pl_s8_conv *c = &L->pc;
+        if (j->op == S8_A_PACK) {
+            k->a_pack(&L->in, j->in, L->in_stride, j->lo, j->hi, L->p.stride_h, L->p.stride_w,
+                      &L->out, j->a_out, c->cs, begin, end);
+            if (j->fuse) k->run(c, j->a_out, j->out, L->out_stride, begin, end, 0, c->out_c);
+        }
+        else if (j->op == S8_A_ROWS)
+            k->a_rows(&L->in, j->in, L->in_stride, L->p.pad_h, L->p.pad_w,
+                      pl_s8_pad_u(L->p.input_offset), L->filt.w, L->p.stride_w,
+                      L->p.dilation_w, c->a_h, c->a_w, j->a_out, c->cs, begin, end);
+        else if (j->op == S8_A_PAD)
+            k->a_pad(&L->in, j->in, L->in_stride, L->p.pad_h, L->p.pad_w,
+                     pl_s8_pad_u(L->p.input_offset), c->a_h, c->a_w, j->a_out, c->cs, begin, end);
+        else if (j->by_channel)
+            k->run(c, j->a, j->out, L->out_stride, 0, c->n * c->out_h * c->out_w, begin, end);
+        else
+            k->run(c, j->a, j->out, L->out_stride, begin, end, 0, c->out_c);
         return;
     }
     const nn_per_channel_quant q = {L->mult, L->shift};
@@ -597,9 +728,53 @@ static void run_s8(void *ctx, int begin, int end)
     }
 }
 
-static void layer(pl_pool *pool, enum s8_op op, const struct s8_layer *L, const int8_t *in,
-                  int8_t *out)
+/* The packed convolution of an A already built. */
+static void run_packed(pl_pool *pool, const pl_kernels_s8 *k, const struct s8_layer *L,
+                       const uint8_t *a, int8_t *out)
 {
+    const pl_s8_conv *c = &L->pc;
+    const int npix = c->n * c->out_h * c->out_w;
+    struct s8_job j = {.op = S8_RUN, .L = L, .k = k, .a = a, .out = out};
+    j.by_channel = npix < 2 * pl_pool_threads(pool);
+    pl_pool_for(pool, j.by_channel ? c->out_c : npix, run_s8, &j);
+}
+
+/* The packed path: build A (clamped when lo), then the convolution, split over output pixels
+ * (over channels for the one-pixel fc). Each output value depends only on its pixel and channel,
+ * so the split never changes a bit. */
+static void layer_packed(const pl_s8 *s, pl_pool *pool, const struct s8_layer *L,
+                         const int8_t *in, const int8_t *lo, const int8_t *hi, int8_t *out)
+{
+    const pl_s8_conv *c = &L->pc;
+    const int dense = L->a_kind == PL_S8_A_PACK;
+    uint8_t *a = dense ? s->a1 : s->a2;
+    struct s8_job j = {.L = L, .in = in, .lo = lo, .hi = hi, .k = &s->k->s8, .a_out = a};
+    const int npix = c->n * c->out_h * c->out_w;
+    if (dense && npix >= 2 * pl_pool_threads(pool)) {
+        j.op = S8_A_PACK;
+        j.fuse = 1;
+        j.out = out;
+        pl_pool_for(pool, npix, run_s8, &j);
+        return;
+    }
+    if (dense) {
+        j.op = S8_A_PACK;
+        run_s8(&j, 0, npix); /* the fc's one pixel */
+    } else {
+        j.op = L->a_kind == PL_S8_A_ROWS ? S8_A_ROWS : S8_A_PAD;
+        pl_pool_for(pool, c->n * c->a_h, run_s8, &j);
+    }
+    run_packed(pool, &s->k->s8, L, a, out);
+}
+
+static void layer(const pl_s8 *s, pl_pool *pool, enum s8_op op, const struct s8_layer *L,
+                  const int8_t *in, int8_t *out)
+{
+    if (s->k->s8.packed) {
+        layer_packed(s, pool, L, in, op == S8_CONV1X1_CLAMP ? L->lo : NULL,
+                     op == S8_CONV1X1_CLAMP ? L->hi : NULL, out);
+        return;
+    }
     struct s8_job j = {.op = op, .L = L, .in = in, .out = out};
     pl_pool_for(pool, L->out.c, run_s8, &j);
 }
@@ -640,7 +815,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
 {
     const int H = s->sh.in_h, W = s->sh.in_w;
     char name[64];
-    layer(pool, S8_CONV, &s->conv0, s->buf_b, s->buf_a);
+    layer(s, pool, S8_CONV, &s->conv0, s->buf_b, s->buf_a);
     observe_s8(s, "conv0", s->buf_a, 64, H / 2, W / 2, 64, &s->conv0);
 
     int h = H / 4, w = W / 4;
@@ -656,15 +831,37 @@ static void forward(pl_s8 *s, pl_pool *pool)
                            .out = cur,
                            .in_stride = 64,
                            .out_stride = block_c0[0] + GROWTH * block_layers[0]};
-        pl_pool_for(pool, 64, run_s8, &j);
+        if (s->k->s8.packed) {
+            j.op = S8_MAXPOOL_P;
+            j.k = &s->k->s8;
+            pl_pool_for(pool, h * w, run_s8, &j);
+        } else {
+            pl_pool_for(pool, 64, run_s8, &j);
+        }
     }
     int li = 0;
     for (int b = 0; b < N_BLOCKS; b++) {
         const int ctot = block_c0[b] + GROWTH * block_layers[b];
         for (int l = 0; l < block_layers[b]; l++, li++) {
             const struct s8_dense *D = &s->layers[li];
-            layer(pool, S8_CONV1X1_CLAMP, &D->c1, cur, s->t);
-            layer(pool, S8_CONV, &D->c2, s->t, cur + D->cin);
+            if (s->k->s8.packed) {
+                /* the 1x1 writes its output as u8 straight into the interior of the 3x3's
+                 * padded A (pitch w + 2, border = the zero point, set once per block) */
+                const int aw = w + 2;
+                if (l == 0) memset(s->a2, pl_s8_pad_u(D->c2.p.input_offset),
+                                   (size_t)(h + 2) * (size_t)aw * BOTTLENECK);
+                layer_packed(s, pool, &D->c1, cur, D->c1.lo, D->c1.hi,
+                             (int8_t *)s->a2 + ((size_t)aw + 1) * BOTTLENECK);
+                run_packed(pool, &s->k->s8, &D->c2, s->a2, cur + D->cin);
+                if (s->observer) /* the observer reads the bottleneck as s8 in T */
+                    for (int y = 0; y < h; y++)
+                        for (int i = 0; i < w * BOTTLENECK; i++)
+                            s->t[(size_t)y * w * BOTTLENECK + (size_t)i] = (int8_t)(
+                                s->a2[((size_t)(y + 1) * aw + 1) * BOTTLENECK + (size_t)i] ^ 0x80);
+            } else {
+                layer(s, pool, S8_CONV1X1_CLAMP, &D->c1, cur, s->t);
+                layer(s, pool, S8_CONV, &D->c2, s->t, cur + D->cin);
+            }
             if (s->observer) {
                 snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
                 observe_s8(s, name, s->t, BOTTLENECK, h, w, BOTTLENECK, &D->c1);
@@ -673,7 +870,36 @@ static void forward(pl_s8 *s, pl_pool *pool)
             }
         }
         const nn_dims bd = {1, h, w, ctot};
-        if (b < N_BLOCKS - 1) {
+        if (b < N_BLOCKS - 1 && s->k->s8.packed) {
+            /* clamp + 2x2 average pool straight into the transition conv's A */
+            const struct s8_trans *T = &s->trans[b];
+            const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
+            const nn_dims pd = {1, h / 2, w / 2, ctot};
+            struct s8_job pj = {.op = S8_AVGPOOL_P,
+                                .L = &T->conv,
+                                .out = next,
+                                .fuse = 1,
+                                .k = &s->k->s8,
+                                .pool = &ap,
+                                .in_dims = &bd,
+                                .out_dims = &pd,
+                                .in = cur,
+                                .in_stride = ctot,
+                                .lo = T->lo,
+                                .hi = T->hi,
+                                .a_out = s->a1,
+                                .out_stride = T->conv.pc.cs};
+            pl_pool_for(pool, (h / 2) * (w / 2), run_s8, &pj); /* and the 1x1 conv */
+            h /= 2;
+            w /= 2;
+            if (s->observer) {
+                snprintf(name, sizeof name, "transition%d.conv", b + 1);
+                observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
+            }
+            int8_t *tmp = cur;
+            cur = next;
+            next = tmp;
+        } else if (b < N_BLOCKS - 1) {
             const struct s8_trans *T = &s->trans[b];
             struct s8_job cj = {.op = S8_CLAMP,
                                 .in_dims = &bd,
@@ -695,7 +921,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
             pl_pool_for(pool, ctot, run_s8, &pj);
             h /= 2;
             w /= 2;
-            layer(pool, S8_CONV1X1, &T->conv, s->t, next);
+            layer(s, pool, S8_CONV1X1, &T->conv, s->t, next);
             if (s->observer) {
                 snprintf(name, sizeof name, "transition%d.conv", b + 1);
                 observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
@@ -710,7 +936,13 @@ static void forward(pl_s8 *s, pl_pool *pool)
                                 .out_stride = ctot,
                                 .lo = s->n5_lo,
                                 .hi = s->n5_hi};
-            pl_pool_for(pool, ctot, run_s8, &cj);
+            if (s->k->s8.packed) {
+                cj.op = S8_CLAMP_P;
+                cj.k = &s->k->s8;
+                pl_pool_for(pool, h * w, run_s8, &cj);
+            } else {
+                pl_pool_for(pool, ctot, run_s8, &cj);
+            }
         }
     }
     /* band pooling of the clamped norm5 input (nn_band_pool_f32__ref's bands), rounded half away
@@ -734,7 +966,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
     if (s->fc_wf) {
         fc_f32(pool, s->z, s->z_len, s->fc_wf, s->fc_bf, fcn, 1, s->h);
     } else {
-        layer(pool, S8_FC, &s->fc, s->zq, s->hq);
+        layer(s, pool, S8_FC, &s->fc, s->zq, s->hq);
         for (int i = 0; i < fcn; i++)
             s->h[i] = s->fc.out_scale[i] * ((float)s->hq[i] + 128.0f);
     }

@@ -1,0 +1,326 @@
+/* The packed int8 convolution (kernels/kernels_s8.h), written once for three x86 paths. The
+ * including file defines one of
+ *   NN_T_AVX512VNNI  zmm, vpdpbusd; a tile is 12 pixels x 2 blocks of 16 channels
+ *   NN_T_AVXVNNI     ymm, VEX vpdpbusd; 6 pixels x 1 block (2 ymm)
+ *   NN_T_AVX2        ymm, u8 widened to s16 and vpmaddwd; 4 pixels x 1 block (2 ymm)
+ * and NN_T_NAME, the function's name.
+ *
+ * Each tile keeps MR x 2 int32 accumulators in registers, starting from the folded bias, and
+ * walks the taps and the groups of 4 input channels: per group it loads the two weight vectors
+ * once and broadcasts 4 bytes of A per pixel. Then it requantises exactly as pl_requantize_s8
+ * (quant/requant.h), lane by lane:
+ *   x    = acc << lsh, saturated to int32 when the shift overflows
+ *   high = (x * mult + 2^30) >> 31          (64-bit products of the even and odd lanes; the low
+ *                                            32 bits of the shifted sum are the same for a
+ *                                            logical and an arithmetic shift)
+ *   res  = (high >> rsh) + (remainder > (mask >> 1) + (high < 0))     rounding half away
+ * clamps res to [-1024, 1024] (which changes no final value, as |output_offset| <= 128 and the
+ * activation range is inside [-128, 127]), adds the output offset, clamps to the activation
+ * range, narrows to bytes and stores the channels asked for. */
+#include <immintrin.h>
+#include <string.h>
+
+#include "kernels/x86/nn_s8_x86.h"
+
+#if defined(NN_T_AVX512VNNI)
+typedef __m512i vec;
+#define MR 12
+#define NBLK 2 /* blocks per tile */
+#define GROUP_BYTES 64
+#elif defined(NN_T_AVXVNNI) || defined(NN_T_AVX2)
+typedef __m256i vec;
+#define NBLK 1
+#if defined(NN_T_AVX2)
+#define MR 4 /* 8 accumulators + 4 weight vectors + temporaries: no spills in 16 ymm */
+#define GROUP_BYTES 128
+#else
+#define MR 6
+#define GROUP_BYTES 64
+#endif
+#else
+#error "define NN_T_AVX512VNNI, NN_T_AVXVNNI or NN_T_AVX2"
+#endif
+
+#define INLINE static inline __attribute__((always_inline))
+
+static inline int32_t load32(const uint8_t *p)
+{
+    int32_t v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/* ---- requantisation of one vector of accumulators ------------------------------------------ */
+
+#if defined(NN_T_AVX512VNNI)
+INLINE __m512i requant(const int left, __m512i acc, __m512i mult, __m512i lsh, __m512i rsh,
+                       __m512i mask, __m512i half, __m512i off, __m512i lo, __m512i hi)
+{
+    __m512i x = acc;
+    if (left) {
+        const __m512i x0 = _mm512_sllv_epi32(acc, lsh);
+        const __mmask16 ovf = _mm512_cmpneq_epi32_mask(_mm512_srav_epi32(x0, lsh), acc);
+        const __m512i sat =
+            _mm512_xor_si512(_mm512_srai_epi32(acc, 31), _mm512_set1_epi32(INT32_MAX));
+        x = _mm512_mask_blend_epi32(ovf, x0, sat);
+    }
+    const __m512i nudge = _mm512_set1_epi64((int64_t)1 << 30);
+    const __m512i ev = _mm512_add_epi64(_mm512_mul_epi32(x, mult), nudge);
+    const __m512i od = _mm512_add_epi64(
+        _mm512_mul_epi32(_mm512_srli_epi64(x, 32), _mm512_srli_epi64(mult, 32)), nudge);
+    const __m512i high =
+        _mm512_mask_blend_epi32(0xAAAA, _mm512_srli_epi64(ev, 31), _mm512_slli_epi64(od, 1));
+    const __m512i one = _mm512_set1_epi32(1);
+    const __m512i rem = _mm512_and_si512(high, mask);
+    const __m512i thr = _mm512_sub_epi32(half, _mm512_srai_epi32(high, 31));
+    __m512i res = _mm512_srav_epi32(high, rsh);
+    res = _mm512_mask_add_epi32(res, _mm512_cmpgt_epi32_mask(rem, thr), res, one);
+    res = _mm512_max_epi32(_mm512_min_epi32(res, _mm512_set1_epi32(1024)),
+                           _mm512_set1_epi32(-1024));
+    res = _mm512_add_epi32(res, off);
+    return _mm512_max_epi32(_mm512_min_epi32(res, hi), lo);
+}
+#else
+INLINE __m256i requant(const int left, __m256i acc, __m256i mult, __m256i lsh, __m256i rsh,
+                       __m256i mask, __m256i half, __m256i off, __m256i lo, __m256i hi)
+{
+    __m256i x = acc;
+    if (left) {
+        const __m256i x0 = _mm256_sllv_epi32(acc, lsh);
+        const __m256i same = _mm256_cmpeq_epi32(_mm256_srav_epi32(x0, lsh), acc);
+        const __m256i sat =
+            _mm256_xor_si256(_mm256_srai_epi32(acc, 31), _mm256_set1_epi32(INT32_MAX));
+        x = _mm256_blendv_epi8(sat, x0, same);
+    }
+    const __m256i nudge = _mm256_set1_epi64x((int64_t)1 << 30);
+    const __m256i ev = _mm256_add_epi64(_mm256_mul_epi32(x, mult), nudge);
+    const __m256i od = _mm256_add_epi64(
+        _mm256_mul_epi32(_mm256_srli_epi64(x, 32), _mm256_srli_epi64(mult, 32)), nudge);
+    const __m256i high =
+        _mm256_blend_epi32(_mm256_srli_epi64(ev, 31), _mm256_slli_epi64(od, 1), 0xAA);
+    const __m256i rem = _mm256_and_si256(high, mask);
+    const __m256i thr = _mm256_sub_epi32(half, _mm256_srai_epi32(high, 31));
+    __m256i res = _mm256_srav_epi32(high, rsh);
+    res = _mm256_sub_epi32(res, _mm256_cmpgt_epi32(rem, thr)); /* true is -1 */
+    res = _mm256_max_epi32(_mm256_min_epi32(res, _mm256_set1_epi32(1024)),
+                           _mm256_set1_epi32(-1024));
+    res = _mm256_add_epi32(res, off);
+    return _mm256_max_epi32(_mm256_min_epi32(res, hi), lo);
+}
+#endif
+
+/* ---- one tile --------------------------------------------------------------------------------
+ * mr pixels (A at a0 + m*astep) x nv vectors of channels starting at block `blk`; writes the
+ * bytes of channels [cb, ce) (relative to the tile's first channel) of pixel m at out[m] + c0. */
+INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t *a0, size_t astep,
+                 const uint8_t *wblk, size_t wblock_bytes, const int32_t *qv, int nbp,
+                 int8_t *const *out, int c0, int cb, int ce)
+{
+    vec acc[MR][2];
+#if defined(NN_T_AVX512VNNI)
+    const __m512i b0 = _mm512_loadu_si512(qv), b1 = _mm512_loadu_si512(qv + (nv > 1 ? 16 : 0));
+#pragma GCC unroll 12
+    for (int m = 0; m < mr; m++) {
+        acc[m][0] = b0;
+        acc[m][1] = b1;
+    }
+#else
+    const __m256i b0 = _mm256_loadu_si256((const __m256i *)(const void *)qv),
+                  b1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 8));
+#pragma GCC unroll 12
+    for (int m = 0; m < mr; m++) {
+        acc[m][0] = b0;
+        acc[m][1] = b1;
+    }
+#endif
+    const int gpt = c->cs / 4;
+    const uint8_t *wg = wblk;
+    for (int ky = 0; ky < c->k_h; ky++)
+        for (int kx = 0; kx < c->k_w; kx++) {
+            const uint8_t *ap =
+                a0 + ((size_t)ky * (size_t)c->dilation_h * (size_t)c->a_w +
+                      (size_t)kx * (size_t)c->dilation_w) * (size_t)c->cs;
+            for (int g = 0; g < gpt; g++, wg += GROUP_BYTES, ap += 4) {
+#if defined(NN_T_AVX512VNNI)
+                const __m512i w0 = _mm512_loadu_si512(wg);
+                const __m512i w1 = nv > 1 ? _mm512_loadu_si512(wg + wblock_bytes) : w0;
+#pragma GCC unroll 12
+                for (int m = 0; m < mr; m++) {
+                    const __m512i av = _mm512_set1_epi32(load32(ap + (size_t)m * astep));
+                    acc[m][0] = _mm512_dpbusd_epi32(acc[m][0], av, w0);
+                    if (nv > 1) acc[m][1] = _mm512_dpbusd_epi32(acc[m][1], av, w1);
+                }
+#elif defined(NN_T_AVXVNNI)
+                (void)wblock_bytes;
+                const __m256i w0 = _mm256_loadu_si256((const __m256i *)(const void *)wg);
+                const __m256i w1 = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 32));
+#pragma GCC unroll 12
+                for (int m = 0; m < mr; m++) {
+                    const __m256i av = _mm256_set1_epi32(load32(ap + (size_t)m * astep));
+                    acc[m][0] = _mm256_dpbusd_avx_epi32(acc[m][0], av, w0);
+                    acc[m][1] = _mm256_dpbusd_avx_epi32(acc[m][1], av, w1);
+                }
+#else
+                (void)wblock_bytes;
+                const __m256i w01a = _mm256_loadu_si256((const __m256i *)(const void *)wg);
+                const __m256i w01b = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 32));
+                const __m256i w23a = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 64));
+                const __m256i w23b = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 96));
+#pragma GCC unroll 12
+                for (int m = 0; m < mr; m++) {
+                    const __m256i u = _mm256_unpacklo_epi8(
+                        _mm256_set1_epi32(load32(ap + (size_t)m * astep)), _mm256_setzero_si256());
+                    const __m256i a01 = _mm256_shuffle_epi32(u, 0x00);
+                    const __m256i a23 = _mm256_shuffle_epi32(u, 0x55);
+                    acc[m][0] = _mm256_add_epi32(
+                        acc[m][0], _mm256_add_epi32(_mm256_madd_epi16(a01, w01a),
+                                                    _mm256_madd_epi16(a23, w23a)));
+                    acc[m][1] = _mm256_add_epi32(
+                        acc[m][1], _mm256_add_epi32(_mm256_madd_epi16(a01, w01b),
+                                                    _mm256_madd_epi16(a23, w23b)));
+                }
+#endif
+            }
+        }
+
+    /* requantise and store */
+#if defined(NN_T_AVX512VNNI)
+    const __m512i off = _mm512_set1_epi32(c->output_offset), lo = _mm512_set1_epi32(c->act_min),
+                  hi = _mm512_set1_epi32(c->act_max);
+    const __m128i xr = _mm_set1_epi8((char)c->out_xor);
+    for (int v = 0; v < nv; v++) {
+        const int32_t *q = qv + 16 * v;
+        const __m512i mult = _mm512_loadu_si512(q + nbp), lsh = _mm512_loadu_si512(q + 2 * nbp),
+                      rsh = _mm512_loadu_si512(q + 3 * nbp), mask = _mm512_loadu_si512(q + 4 * nbp),
+                      half = _mm512_loadu_si512(q + 5 * nbp);
+        const int vb = cb - 16 * v < 0 ? 0 : cb - 16 * v;
+        const int ve = ce - 16 * v > 16 ? 16 : ce - 16 * v;
+        if (ve <= vb) continue;
+        const __mmask16 km = (__mmask16)(((1u << ve) - 1u) & ~((1u << vb) - 1u));
+        if (c->any_left_shift) {
+#pragma GCC unroll 12
+            for (int m = 0; m < mr; m++) {
+                const __m512i r = requant(1, acc[m][v], mult, lsh, rsh, mask, half, off, lo, hi);
+                const __m128i bytes = _mm_xor_si128(_mm512_cvtepi32_epi8(r), xr);
+                _mm_mask_storeu_epi8(out[m] + c0 + 16 * v, km, bytes);
+            }
+        } else {
+#pragma GCC unroll 12
+            for (int m = 0; m < mr; m++) {
+                const __m512i r = requant(0, acc[m][v], mult, lsh, rsh, mask, half, off, lo, hi);
+                const __m128i bytes = _mm_xor_si128(_mm512_cvtepi32_epi8(r), xr);
+                _mm_mask_storeu_epi8(out[m] + c0 + 16 * v, km, bytes);
+            }
+        }
+    }
+#else
+    const __m256i off = _mm256_set1_epi32(c->output_offset), lo = _mm256_set1_epi32(c->act_min),
+                  hi = _mm256_set1_epi32(c->act_max);
+    const __m128i xr = _mm_set1_epi8((char)c->out_xor);
+    const __m256i m0 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + nbp)),
+                  m1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + nbp + 8)),
+                  l0 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 2 * nbp)),
+                  l1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 2 * nbp + 8)),
+                  r0 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 3 * nbp)),
+                  r1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 3 * nbp + 8)),
+                  k0 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 4 * nbp)),
+                  k1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 4 * nbp + 8)),
+                  h0 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 5 * nbp)),
+                  h1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 5 * nbp + 8));
+    const int left = c->any_left_shift;
+    (void)nv;
+#pragma GCC unroll 12
+    for (int m = 0; m < mr; m++) {
+        const __m256i q0 = left ? requant(1, acc[m][0], m0, l0, r0, k0, h0, off, lo, hi)
+                                : requant(0, acc[m][0], m0, l0, r0, k0, h0, off, lo, hi);
+        const __m256i q1 = left ? requant(1, acc[m][1], m1, l1, r1, k1, h1, off, lo, hi)
+                                : requant(0, acc[m][1], m1, l1, r1, k1, h1, off, lo, hi);
+        const __m256i w16 = _mm256_permute4x64_epi64(_mm256_packs_epi32(q0, q1), 0xD8);
+        const __m128i bytes = _mm_xor_si128(
+            _mm_packs_epi16(_mm256_castsi256_si128(w16), _mm256_extracti128_si256(w16, 1)), xr);
+        int8_t *o = out[m] + c0;
+        if (cb == 0 && ce >= 16) {
+            _mm_storeu_si128((__m128i *)(void *)o, bytes);
+        } else {
+            int8_t tmp[16];
+            _mm_storeu_si128((__m128i *)(void *)tmp, bytes);
+            memcpy(o + cb, tmp + cb, (size_t)(ce - cb));
+        }
+    }
+#endif
+}
+
+/* Dispatches a runtime tile height and width to the specialised tile. */
+#define NN_T_CASE(n, v)                                                                           \
+    case n: tile(n, v, c, a0, astep, wblk, wblock_bytes, qv, nbp, out, c0, cb, ce); break;
+
+static void tile_any(int mr, int nv, const pl_s8_conv *c, const uint8_t *a0, size_t astep,
+                     const uint8_t *wblk, size_t wblock_bytes, const int32_t *qv, int nbp,
+                     int8_t *const *out, int c0, int cb, int ce)
+{
+    if (nv == 2) {
+        switch (mr) {
+            NN_T_CASE(1, 2) NN_T_CASE(2, 2) NN_T_CASE(3, 2) NN_T_CASE(4, 2)
+#if MR > 4
+            NN_T_CASE(5, 2) NN_T_CASE(6, 2)
+#endif
+#if MR > 6
+            NN_T_CASE(7, 2) NN_T_CASE(8, 2) NN_T_CASE(9, 2) NN_T_CASE(10, 2) NN_T_CASE(11, 2)
+            NN_T_CASE(12, 2)
+#endif
+        default: break;
+        }
+    } else {
+#if NBLK > 1
+        switch (mr) {
+            NN_T_CASE(1, 1) NN_T_CASE(2, 1) NN_T_CASE(3, 1) NN_T_CASE(4, 1) NN_T_CASE(5, 1)
+            NN_T_CASE(6, 1) NN_T_CASE(7, 1) NN_T_CASE(8, 1) NN_T_CASE(9, 1) NN_T_CASE(10, 1)
+            NN_T_CASE(11, 1) NN_T_CASE(12, 1)
+        default: break;
+        }
+#endif
+    }
+}
+
+void NN_T_NAME(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
+               int pix_begin, int pix_end, int oc_begin, int oc_end)
+{
+    const int nb = (c->out_c + PL_S8_OCB - 1) / PL_S8_OCB, nbp = nb * PL_S8_OCB;
+    const size_t wblock_bytes = (size_t)c->k_h * (size_t)c->k_w * (size_t)(c->cs / 4) *
+                                GROUP_BYTES;
+    const int dense = c->k_h == 1 && c->k_w == 1 && c->stride_h == 1 && c->stride_w == 1 &&
+                      c->a_h == c->out_h && c->a_w == c->out_w;
+    const size_t astep = (size_t)c->stride_w * (size_t)c->cs, ostride = (size_t)out_c_stride;
+    const int pitch = c->out_pitch ? c->out_pitch : c->out_w;
+    const int blk_begin = oc_begin / PL_S8_OCB, blk_end = (oc_end + PL_S8_OCB - 1) / PL_S8_OCB;
+    const uint8_t *w = c->w;
+    for (int p = pix_begin; p < pix_end;) {
+        const int ox = p % c->out_w, row = p / c->out_w, oy = row % c->out_h, b = row / c->out_h;
+        int mr = pix_end - p;
+        if (!dense && mr > c->out_w - ox) mr = c->out_w - ox;
+        if (mr > MR) mr = MR;
+        const uint8_t *a0 = a + (((size_t)b * (size_t)c->a_h + (size_t)oy * (size_t)c->stride_h) *
+                                     (size_t)c->a_w +
+                                 (size_t)ox * (size_t)c->stride_w) *
+                                    (size_t)c->cs;
+        int8_t *o[MR]; /* the tile's output pixels (rows of the output may be apart: out_pitch) */
+        for (int m = 0; m < mr; m++) {
+            const int q = p + m, qx = q % c->out_w, qrow = q / c->out_w;
+            o[m] = out + ((size_t)qrow * (size_t)pitch + (size_t)qx) * ostride;
+        }
+        for (int blk = blk_begin; blk < blk_end; blk += NBLK) {
+            const int nblk = blk + NBLK <= blk_end ? NBLK : blk_end - blk;
+#if NBLK > 1
+            const int nv = nblk;
+#else
+            const int nv = 2;
+#endif
+            const int c0 = blk * PL_S8_OCB;
+            const int cb = oc_begin > c0 ? oc_begin - c0 : 0;
+            const int ce = oc_end - c0 < nblk * PL_S8_OCB ? oc_end - c0 : nblk * PL_S8_OCB;
+            tile_any(mr, nv, c, a0, astep, w + (size_t)blk * wblock_bytes, wblock_bytes,
+                     c->bias + c0, nbp, o, c0, cb, ce);
+        }
+        p += mr;
+    }
+}

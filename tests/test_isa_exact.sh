@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# The int8 network gives byte-identical JSON (timing and timestamp fields removed) on every
+# instruction-set path this CPU runs — PARLIGHT_ISA=ref (the reference kernels), avx2, avxvnni,
+# avx512vnni — and with 1 or 2 threads: the SIMD kernels are bit-exact and the work split does
+# not change a bit. (The reference path runs once, with 2 threads, as the baseline: it is 60-100x
+# slower, and its independence of the thread count is tests/test_quantize.sh's.) Models: int8 quantisations of build/models/seeded-n3.plm (192x256) and, when
+# it exists, build/models/seeded-n3-96x128.plm (other block sizes, so other tile remainders),
+# calibrated on tests/data/frames; the frames of tests/data/frames as input. A path the CPU
+# lacks is skipped with a message (parlight estimate says why); at least ref and one SIMD path
+# must run. Also `parlight info` names the path and the implementation of every slot, and
+# the executor's per-layer observer sees the same activations on every path.
+set -u
+P="$BUILD/parlight"
+T="$PL_TEST_TMP/isa_exact"
+mkdir -p "$T"
+fail() { echo "FAIL: $*"; exit 1; }
+[ -f build/models/seeded-n3.plm ] || fail "no build/models/seeded-n3.plm (make test exports it)"
+
+strip() { sed -E 's/"timing_ms":\{[^}]*\},?//; s/"t_ns":[0-9]+,?//' "$1"; }
+
+for M in build/models/seeded-n3.plm build/models/seeded-n3-96x128.plm; do
+    [ -f "$M" ] || { echo "no $M, skipped"; continue; }
+    Q="$T/$(basename "$M" .plm)-int8.plm"
+    "$P" quantize --model "$M" --calib tests/data/frames --method minmax --out "$Q" \
+        2>"$T/qerr" || fail "quantize $M: $(cat "$T/qerr")"
+    ref=""
+    simd=0
+    for isa in ref avx2 avxvnni avx512vnni; do
+        ths="1 2"
+        [ "$isa" = ref ] && ths=2
+        for th in $ths; do
+            out="$T/$(basename "$Q" .plm)-$isa-$th.jsonl"
+            if ! PARLIGHT_ISA=$isa "$P" estimate --model "$Q" --input tests/data/frames \
+                --threads "$th" >"$out" 2>"$T/err"; then
+                grep -q "cannot run it" "$T/err" && [ "$isa" != ref ] ||
+                    fail "PARLIGHT_ISA=$isa --threads $th: $(cat "$T/err")"
+                echo "skip $isa: $(cat "$T/err")"
+                continue 2
+            fi
+            [ "$(wc -l <"$out")" -eq 5 ] || fail "$isa: $(wc -l <"$out") lines, expected 5"
+            if [ -z "$ref" ]; then
+                ref="$out"
+            else
+                cmp -s <(strip "$ref") <(strip "$out") ||
+                    fail "$(basename "$M"): PARLIGHT_ISA=$isa --threads $th differs from ref"
+            fi
+        done
+        [ "$isa" = ref ] || simd=$((simd + 1))
+        echo "$(basename "$M") $isa: identical to ref (threads: $ths)"
+        # info names the path and the kernel of every slot
+        PARLIGHT_ISA=$isa "$P" info --model "$Q" >"$T/info" || fail "info under $isa"
+        grep -q "^isa path     $isa" "$T/info" || fail "info under $isa: $(cat "$T/info")"
+    done
+    [ "$simd" -ge 1 ] || echo "no SIMD path on this CPU: only ref ran"
+done
+PARLIGHT_ISA=ref "$P" info --model "$Q" | grep -q "nn_conv1x1_clamp_s8__ref" ||
+    fail "info on ref does not list nn_conv1x1_clamp_s8__ref"
+
+# the per-layer observer (calibration, qcheck's SQNR per layer) sees the same int8 activations on
+# every path and thread count (tests/observe_dump.c hashes each observed layer)
+Q="$T/seeded-n3-int8.plm"
+PARLIGHT_ISA=ref "$BUILD/tests/observe_dump" "$Q" 2 >"$T/obs-ref" 2>"$T/err" ||
+    fail "observe_dump under ref: $(cat "$T/err")"
+[ "$(wc -l <"$T/obs-ref")" -eq 122 ] || fail "observe_dump: $(wc -l <"$T/obs-ref") layers, expected 122"
+for isa in avx2 avxvnni avx512vnni; do
+    for th in 1 2; do
+        PARLIGHT_ISA=$isa "$BUILD/tests/observe_dump" "$Q" $th >"$T/obs" 2>"$T/err" ||
+            { echo "observer: skip $isa: $(cat "$T/err")"; continue 2; }
+        cmp -s "$T/obs-ref" "$T/obs" || fail "observed layers under $isa ($th threads) differ from ref"
+    done
+    echo "observer $isa: identical to ref"
+done
