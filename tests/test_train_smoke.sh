@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# The training tools end to end on tiny inputs (tools/train/): make_dataset.py on 1 train
+# panorama (6 crops of 128x96 by parlight crop; resumable: a rerun changes nothing; deterministic:
+# a second folder with the same seed holds the same bytes; another seed in the same folder is
+# refused), then train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
+# checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
+# step 1 and step 2, the export (.plm), and the exported model in C (parlight info, estimate)
+# against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3).
+# Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
+set -u
+cd "$(dirname "$0")/.."
+PY=/usr/bin/python3
+BUILD=${BUILD:-build}
+PL_SHARED=${PL_SHARED:-$(cd .. && pwd)/shared}
+TMP=${PL_TEST_TMP:-$(mktemp -d)}/train_smoke
+rm -rf "$TMP"
+mkdir -p "$TMP"
+if ! "$PY" -c 'import torch, torchvision, numpy, PIL' 2>/dev/null; then
+    echo "skip: $PY lacks torch/torchvision/numpy/PIL (tools/install-deps.sh installs them)"
+    exit 77
+fi
+if [ ! -f "$PL_SHARED/data/hdri/MANIFEST.tsv" ]; then
+    echo "skip: no $PL_SHARED/data/hdri/MANIFEST.tsv (the shared panoramas)"
+    exit 77
+fi
+[ -x "$BUILD/parlight" ] || { echo "FAIL: no $BUILD/parlight (build first)"; exit 1; }
+fail() { echo "FAIL: $*"; exit 1; }
+
+DS=("$PY" tools/train/make_dataset.py --hdri "$PL_SHARED/data/hdri" --parlight "$BUILD/parlight"
+    --limit 1 --crops-per-pano 6 --size 128x96 --seed 5 --quiet)
+"${DS[@]}" --out "$TMP/data" >/dev/null || fail "make_dataset.py"
+[ "$(ls "$TMP"/data/crops/*.png | wc -l)" -eq 6 ] || fail "expected 6 crops"
+[ "$(ls "$TMP"/data/crops/*.json | wc -l)" -eq 6 ] || fail "expected 6 ground-truth files"
+[ "$(wc -l <"$TMP/data/index.tsv")" -eq 7 ] || fail "index.tsv: expected a header and 6 rows"
+grep -q $'\teval/' "$TMP/data/index.tsv" && fail "an eval/ panorama in the training index"
+sum1=$(cat "$TMP"/data/crops/* | sha256sum)
+"${DS[@]}" --out "$TMP/data" >/dev/null || fail "make_dataset.py rerun"
+[ "$(cat "$TMP"/data/crops/* | sha256sum)" = "$sum1" ] || fail "a rerun changed the crops"
+rm "$TMP"/data/crops/*_k002.json
+"${DS[@]}" --out "$TMP/data" >/dev/null || fail "make_dataset.py resume"
+[ "$(cat "$TMP"/data/crops/* | sha256sum)" = "$sum1" ] || fail "resumed crop differs"
+"${DS[@]}" --out "$TMP/data2" >/dev/null || fail "make_dataset.py second folder"
+[ "$(cat "$TMP"/data2/crops/* | sha256sum)" = "$sum1" ] || fail "same seed, different bytes"
+"${DS[@]}" --seed 6 --out "$TMP/data" >"$TMP/seed.log" 2>&1 &&
+    fail "another seed was accepted in the same folder"
+grep -q "another configuration" "$TMP/seed.log" || fail "no reason given: $(cat "$TMP/seed.log")"
+"$PY" - "$TMP/data" <<'EOF' || fail "ground truth check"
+import json, glob, math, sys
+for p in glob.glob(sys.argv[1] + "/crops/*.json"):
+    d = json.load(open(p))
+    assert d["width"] == 128 and d["height"] == 96, p
+    assert d["dataset"]["panorama"].startswith("train/"), p
+    assert d["lights"] and all(abs(math.hypot(*l["dir"]) - 1) < 1e-5 for l in d["lights"]), p
+    assert d["exposure_scale"] > 0 and 1.8 <= d["gamma"] <= 2.6, p
+EOF
+echo "dataset: 6 crops, resumable, deterministic"
+
+TR=("$PY" tools/train/train.py --data "$TMP/data" --input 96x128 --batch 2 --val-panos 0
+    --step1-epochs 3 --step2-epochs 2 --map-width 32 --threads 1)
+"${TR[@]}" --ckpt-dir "$TMP/ck" --log "$TMP/log" --max-steps 2 >/dev/null || fail "train 2 steps"
+grep -q "stopped at --max-steps 2" "$TMP/log" || fail "no stop line in $(cat "$TMP/log")"
+loss=$(sed -n 's/.*stopped at --max-steps 2, loss \([^ ]*\).*/\1/p' "$TMP/log")
+"$PY" -c "import math,sys; x=float(sys.argv[1]); sys.exit(0 if math.isfinite(x) and x>0 else 1)" \
+    "$loss" || fail "step-1 loss $loss is not finite and positive"
+echo "2 step-1 batches: loss $loss"
+"${TR[@]}" --ckpt-dir "$TMP/ck" --log "$TMP/log" --max-steps 4 >/dev/null || fail "resume"
+grep -q "resumed .*step 1 epoch 0 batch 2" "$TMP/log" || fail "no resume line in $(cat "$TMP/log")"
+"${TR[@]}" --ckpt-dir "$TMP/ck2" --log "$TMP/log2" --max-steps 4 >/dev/null || fail "4 in one go"
+"$PY" - "$TMP/ck/last.pt" "$TMP/ck2/last.pt" <<'EOF' || fail "resumed weights differ"
+import sys, torch
+a, b = (torch.load(p, map_location="cpu") for p in sys.argv[1:3])
+assert a["state"]["steps"] == b["state"]["steps"] == 4, (a["state"], b["state"])
+worst = max(float((a["model"][k].float() - b["model"][k].float()).abs().max()) for k in a["model"])
+print(f"resumed vs uninterrupted after 4 batches: max |weight difference| {worst:.3g}")
+assert worst <= 1e-5, worst
+EOF
+"${TR[@]}" --ckpt-dir "$TMP/ck" --log "$TMP/log" --export "$TMP/m.plm" >/dev/null ||
+    fail "finish steps 1 and 2 and export"
+grep -q "step2 epoch 2/2" "$TMP/log" || fail "no step-2 epoch in $(cat "$TMP/log")"
+[ -f "$TMP/ck/step1.pt" ] && [ -f "$TMP/ck/final.pt" ] || fail "missing step1.pt / final.pt"
+"$BUILD/parlight" info --model "$TMP/m.plm" >"$TMP/info" || fail "parlight info"
+grep -q "128 x 96" "$TMP/info" || fail "input size not 128 x 96: $(cat "$TMP/info")"
+grep -q "trained by tools/train/train.py" "$TMP/info" || fail "no provenance: $(cat "$TMP/info")"
+f=$(ls "$TMP"/data/crops/*.png | head -1)
+"$PY" tools/train/check_export.py --ckpt "$TMP/ck/final.pt" --plm "$TMP/m.plm" --frame "$f" \
+    --parlight "$BUILD/parlight" || fail "C and PyTorch disagree"
+"$PY" tools/train/train.py --export-only "$TMP/ck/step1.pt" "$TMP/s1.plm" >/dev/null ||
+    fail "--export-only"
+"$BUILD/parlight" info --model "$TMP/s1.plm" >/dev/null || fail "step1 export does not load"
+echo "ok"

@@ -1,0 +1,208 @@
+#!/usr/bin/python3
+"""Training crops and their ground truth, made by `parlight crop` from the TRAIN panoramas only.
+
+    tools/train/make_dataset.py [--out /work/cache/train-data] [--crops-per-pano 32]
+                                [--size 256x192] [--seed 1] [--jobs 2] [--parlight build/parlight]
+                                [--hdri ../shared/data/hdri] [--scenes indoor,indoor-semi,outdoor]
+                                [--limit N]
+
+Reads HDRI/MANIFEST.tsv and takes the rows whose file is under train/ (never eval/: a row or a
+panorama path outside train/ is refused). For each panorama, K crops with random camera and
+photometric parameters (drawn by `crop_params`, a pure function of seed, panorama name and crop
+index, so adding panoramas or changing K never changes the crops already made):
+
+    yaw     uniform [0, 360) degrees        pitch  uniform [-15, 25] degrees
+    fov     uniform [45, 80] degrees (horizontal)
+    exposure offset uniform [-1, +1] stops around parlight crop's automatic exposure
+    gamma   uniform [1.8, 2.6] (camera response v = clip(kL)^(1/gamma), 8 bits)
+
+Each crop is `parlight crop --hdr PANO --yaw --pitch --fov --size --exposure --gamma --out
+X.png --gt X.json`: the C implementation renders the crop and writes the ground truth (lights,
+ambient, exposure scale, in the crop's camera frame). This tool adds a "dataset" object to the
+JSON (panorama, scene, licence, seed, index) and never computes any lighting itself.
+
+Layout under --out:
+    dataset.json        the configuration; a rerun with another seed, size, scenes or ranges is
+                        refused (use another --out); more --crops-per-pano extends the set (crop
+                        k's parameters do not depend on K)
+    crops/<stem>_kNNN.png, .json   one crop; the .json is renamed into place last, so its
+                        presence marks a complete crop: an interrupted run resumes where it stopped
+    index.tsv           written at the end: png, json, panorama, scene (what train.py reads)
+"""
+
+import argparse
+import concurrent.futures
+import hashlib
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+VERSION = 1    # bump when crop_params changes what a seed means
+
+RANGES = {"yaw": (0.0, 360.0), "pitch": (-15.0, 25.0), "fov": (45.0, 80.0),
+          "exposure": (-1.0, 1.0), "gamma": (1.8, 2.6)}
+
+
+def default_shared():
+    return os.environ.get("PL_SHARED", os.path.join(os.path.dirname(ROOT), "shared"))
+
+
+def name_key(name):
+    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:4], "little")
+
+
+def crop_params(seed, pano_name, k):
+    """The random parameters of crop k of a panorama (a dict of floats, rounded to what is
+    written on the command line so that the recorded values are the values used)."""
+    rng = np.random.default_rng([seed, name_key(pano_name), k])
+    p = {key: float(rng.uniform(lo, hi)) for key, (lo, hi) in RANGES.items()}
+    return {key: round(v, 4) for key, v in p.items()}
+
+
+def read_manifest(hdri, scenes):
+    path = os.path.join(hdri, "MANIFEST.tsv")
+    with open(path, encoding="utf-8") as f:
+        lines = [ln.rstrip("\n").split("\t") for ln in f if ln.strip()]
+    head = lines[0]
+    for col in ("file", "scene", "license"):
+        if col not in head:
+            raise ValueError(f"{path}: no column {col!r} in the header")
+    rows = []
+    for i, cols in enumerate(lines[1:], 2):
+        row = dict(zip(head, cols))
+        name = row.get("file", "")
+        if not name.startswith("train/"):
+            continue
+        if "/" in name[len("train/"):] or ".." in name:
+            raise ValueError(f"{path}:{i}: unexpected panorama path {name!r}")
+        if row.get("scene") not in scenes:
+            continue
+        full = os.path.join(hdri, name)
+        if not os.path.isfile(full):
+            raise ValueError(f"{path}:{i}: {full} is listed but missing")
+        rows.append(row)
+    return rows
+
+
+def make_one(parlight, hdri, row, k, seed, size, out):
+    """One crop (resumable: skipped when its .json exists). Returns (png, json) names."""
+    name = row["file"]
+    stem = os.path.splitext(os.path.basename(name))[0]
+    base = f"{stem}_k{k:03d}"
+    png, js = os.path.join(out, "crops", base + ".png"), os.path.join(out, "crops", base + ".json")
+    if os.path.exists(js) and os.path.exists(png):
+        return base
+    p = crop_params(seed, name, k)
+    tmp_png = os.path.join(out, "tmp", base + ".png")
+    tmp_js = os.path.join(out, "tmp", base + ".json")
+    cmd = [parlight, "crop", "--hdr", os.path.join(hdri, name),
+           "--yaw", repr(p["yaw"]), "--pitch", repr(p["pitch"]), "--fov", repr(p["fov"]),
+           "--size", f"{size[1]}x{size[0]}", "--exposure", repr(p["exposure"]),
+           "--gamma", repr(p["gamma"]), "--out", tmp_png, "--gt", tmp_js, "--force"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}: exit {r.returncode}: {r.stderr.strip()}")
+    with open(tmp_js, encoding="utf-8") as f:
+        gt = json.load(f)
+    gt["image"] = base + ".png"
+    gt["dataset"] = {"panorama": name, "scene": row["scene"], "license": row["license"],
+                     "seed": seed, "crop_index": k, "params": p, "tool": "tools/train/make_dataset.py",
+                     "version": VERSION}
+    with open(tmp_js, "w", encoding="utf-8") as f:
+        json.dump(gt, f)
+    os.replace(tmp_png, png)
+    os.replace(tmp_js, js)
+    return base
+
+
+def parse_size(text):
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--size {text!r}: expected WxH, e.g. 256x192")
+    if not (32 <= w <= 4096 and 32 <= h <= 4096):
+        raise argparse.ArgumentTypeError(f"--size {text!r}: sides must be in 32..4096")
+    return h, w
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Random crops of the train panoramas with ground "
+                                 "truth, by parlight crop (resumable, deterministic).")
+    ap.add_argument("--out", default="/work/cache/train-data", help="dataset folder")
+    ap.add_argument("--hdri", default=os.path.join(default_shared(), "data", "hdri"),
+                    help="folder with MANIFEST.tsv and train/ (default $PL_SHARED/data/hdri)")
+    ap.add_argument("--crops-per-pano", type=int, default=32, metavar="K")
+    ap.add_argument("--size", type=parse_size, default=(192, 256), metavar="WxH",
+                    help="crop size (default 256x192)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--scenes", default="indoor,indoor-semi,outdoor",
+                    help="MANIFEST scene classes to use (comma-separated)")
+    ap.add_argument("--limit", type=int, default=0, help="only the first N panoramas (tests)")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--parlight", default=os.path.join(ROOT, os.environ.get("BUILD", "build"),
+                                                      "parlight"))
+    ap.add_argument("--quiet", action="store_true")
+    args = ap.parse_args(argv)
+
+    try:
+        if not 1 <= args.crops_per_pano <= 10000:
+            raise ValueError(f"--crops-per-pano {args.crops_per_pano}: expected 1..10000")
+        if not 1 <= args.jobs <= 64:
+            raise ValueError(f"--jobs {args.jobs}: expected 1..64")
+        if not os.access(args.parlight, os.X_OK):
+            raise ValueError(f"{args.parlight}: no parlight binary (build it, or --parlight)")
+        scenes = [s for s in args.scenes.split(",") if s]
+        rows = read_manifest(args.hdri, scenes)
+        if args.limit > 0:
+            rows = rows[:args.limit]
+        if not rows:
+            raise ValueError(f"no train panoramas of scenes {scenes} in {args.hdri}/MANIFEST.tsv")
+        config = {"tool": "tools/train/make_dataset.py", "version": VERSION, "seed": args.seed,
+                  "crops_per_pano": args.crops_per_pano, "size_wh": [args.size[1], args.size[0]],
+                  "scenes": scenes, "ranges": RANGES, "limit": args.limit,
+                  "panoramas": [r["file"] for r in rows]}
+        os.makedirs(os.path.join(args.out, "crops"), exist_ok=True)
+        os.makedirs(os.path.join(args.out, "tmp"), exist_ok=True)
+        cfg_path = os.path.join(args.out, "dataset.json")
+        if os.path.exists(cfg_path):
+            with open(cfg_path, encoding="utf-8") as f:
+                old = json.load(f)
+            same = {k: v for k, v in old.items() if k not in ("crops_per_pano", "panoramas")}
+            want = {k: v for k, v in json.loads(json.dumps(config)).items()
+                    if k not in ("crops_per_pano", "panoramas")}
+            if same != want:
+                raise ValueError(f"{cfg_path}: made with another configuration; use another "
+                                 "--out (or delete the folder)")
+        with open(cfg_path + ".tmp", "w", encoding="utf-8") as f:
+            json.dump(config, f, indent=1)
+        os.replace(cfg_path + ".tmp", cfg_path)
+
+        jobs = [(r, k) for r in rows for k in range(args.crops_per_pano)]
+        done = 0
+        with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
+            futs = [pool.submit(make_one, args.parlight, args.hdri, r, k, args.seed, args.size,
+                                args.out) for r, k in jobs]
+            for fut in futs:
+                fut.result()
+                done += 1
+                if not args.quiet and (done % 100 == 0 or done == len(jobs)):
+                    print(f"{done}/{len(jobs)} crops", flush=True)
+        with open(os.path.join(args.out, "index.tsv.tmp"), "w", encoding="utf-8") as f:
+            f.write("png\tjson\tpanorama\tscene\n")
+            for r, k in jobs:
+                base = f"{os.path.splitext(os.path.basename(r['file']))[0]}_k{k:03d}"
+                f.write(f"crops/{base}.png\tcrops/{base}.json\t{r['file']}\t{r['scene']}\n")
+        os.replace(os.path.join(args.out, "index.tsv.tmp"), os.path.join(args.out, "index.tsv"))
+    except (OSError, ValueError, RuntimeError) as e:
+        print(f"make_dataset: {e}", file=sys.stderr)
+        return 1
+    print(f"{args.out}: {len(jobs)} crops of {len(rows)} panoramas")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,550 @@
+#!/usr/bin/python3
+"""The paper's two-step training of ParLightNet (tools/model.py) on crops from make_dataset.py.
+
+    tools/train/train.py [--data /work/cache/train-data] [--ckpt-dir /work/cache/train-ckpt]
+                         [--log /work/cache/train-log.txt] [--input 96x128] [--n-lights 3]
+                         [--step1-epochs 60] [--step2-epochs 50] [--halve-every 25] [--lr 1e-3]
+                         [--batch 16] [--bf16] [--threads 2] [--export OUT.plm]
+    tools/train/train.py --export-only CKPT OUT.plm [--force]
+
+Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
+lights and the ground-truth lights are both rendered to a small equirectangular SG map
+(tools/train/sg.py, eq. 4, the light/sg.c formula; both prefiltered by a pixel-sized lobe so
+lights narrower than a pixel are not lost between the samples) and compared with an L2 loss,
+weighted w_r = 20, plus the ambient L2 loss, w_a = 1. No correspondence between lights.
+Radiance values (map pixels, ambient, colours) go through log1p before the L2 by default
+(--radiance log): the ground truth spans 0.01 .. 20000 (a sun of 0.0002 sr), and a plain L2 is
+then the error of the brightest pixel alone (--radiance linear is the paper's literal loss).
+
+Step 2 (sec. 3.3.2, "depth and refinement"): the network up to the 512-d vector and the
+direction head are frozen (batch norms in eval mode); for each predicted light, the closest
+ground-truth light by angle, if within 45 degrees, gives L2 losses on distance, size and colour
+(none otherwise), plus the ambient L2; only the size, colour, ambient and distance heads train.
+Because everything they read (z, h, the directions) is frozen, step 2 computes z, h and the
+directions once per crop and flip and trains the heads on those: 50 epochs cost seconds.
+
+--init CKPT starts from another checkpoint's encoder (tools/train/distill.py: MobileNetV2
+features distilled into the DenseNet; the paper starts from ImageNet weights, which we lack).
+
+Adam (beta1 0.9), lr 1e-3 halved every --halve-every epochs, restarting at --lr for step 2.
+Augmentation: horizontal flips (image mirrored, light x negated; the crops themselves already
+vary yaw, pitch, fov, exposure and gamma). Validation: --val-panos panoramas held out (chosen
+by name hash, half of them indoor or indoor-semi, half outdoor), loss logged each epoch.
+
+Checkpoints (--ckpt-dir): last.pt every --ckpt-minutes and at each epoch end (model, optimiser,
+step, epoch, batch within the epoch, RNG states, configuration), step1.pt when step 1 ends,
+final.pt at the end; written to a temporary file and renamed. Rerunning the same command resumes
+from last.pt (an epoch's batch order is a function of the seed and the epoch, so a resumed epoch
+continues where it stopped). A checkpoint made with another configuration is refused.
+
+The log (--log) gets one line per epoch: date, step, epoch, lr, train and validation losses,
+images per second. The model is exported with tools/export.py's code path (folded tensors,
+metadata, plm.write_plm) to --export at the end, or from any checkpoint with --export-only.
+"""
+
+import argparse
+import datetime
+import hashlib
+import json
+import math
+import os
+import random
+import sys
+import time
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from PIL import Image
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))
+import export  # noqa: E402
+import plm  # noqa: E402
+import sg  # noqa: E402
+from model import MEAN, STD, ParLightNet  # noqa: E402
+
+MAX_GT = 16
+COS45 = math.cos(math.radians(45.0))
+# configuration keys that must match to resume a checkpoint
+RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
+               "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs")
+
+
+def log_line(path, text):
+    line = f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ} {text}"
+    print(line, flush=True)
+    if path:
+        with open(path, "a", encoding="utf-8") as f:
+            f.write(line + "\n")
+
+
+# ---- data -------------------------------------------------------------------------------------
+
+def load_dataset(data, hw, val_panos, limit=0):
+    """Crops of index.tsv resized to hw (area filter), u8 [M, H, W, 3], their ground truth
+    padded to MAX_GT lights, and a boolean validation mask (whole panoramas held out)."""
+    index = os.path.join(data, "index.tsv")
+    with open(index, encoding="utf-8") as f:
+        rows = [ln.rstrip("\n").split("\t") for ln in f][1:]
+    if limit:
+        rows = rows[:limit]
+    if not rows:
+        raise ValueError(f"{index}: no crops")
+    panos = sorted({(r[2], r[3]) for r in rows},
+                   key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
+    if val_panos >= len(panos):
+        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} panoramas in the data")
+    # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
+    indoor = [p for p, s in panos if s != "outdoor"]
+    outdoor = [p for p, s in panos if s == "outdoor"]
+    k_in = min(len(indoor), (val_panos + 1) // 2)
+    k_out = min(len(outdoor), val_panos - k_in)
+    held = set(indoor[:k_in] + outdoor[:k_out])
+    held |= set([p for p, _ in panos if p not in held][:val_panos - len(held)])
+    h, w = hw
+    m = len(rows)
+    imgs = np.zeros((m, h, w, 3), np.uint8)
+    gt = {"dir": torch.zeros(m, MAX_GT, 3), "size": torch.ones(m, MAX_GT),
+          "rgb": torch.zeros(m, MAX_GT, 3), "dist": torch.ones(m, MAX_GT),
+          "mask": torch.zeros(m, MAX_GT), "ambient": torch.zeros(m, 3)}
+    val = torch.zeros(m, dtype=torch.bool)
+    for i, (png, js, pano, _scene) in enumerate(rows):
+        if not pano.startswith("train/"):
+            raise ValueError(f"{index}: {pano} is not a train panorama")
+        with Image.open(os.path.join(data, png)) as im:
+            im = im.convert("RGB")
+            if im.size != (w, h):
+                im = im.resize((w, h), Image.BOX)
+            imgs[i] = np.asarray(im)
+        with open(os.path.join(data, js), encoding="utf-8") as f:
+            obj = json.load(f)
+        try:
+            d, s, c, dist, amb = sg.lights_from_json(obj, MAX_GT)
+        except ValueError as e:
+            raise ValueError(f"{js}: {e}") from None
+        n = d.shape[0]
+        gt["dir"][i, :n] = d.float()
+        gt["size"][i, :n] = s.float()
+        gt["rgb"][i, :n] = c.float()
+        gt["dist"][i, :n] = dist.float()
+        gt["mask"][i, :n] = 1
+        gt["ambient"][i] = amb.float()
+        val[i] = pano in held
+    with open(index, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    return torch.from_numpy(imgs), gt, val, sorted(held), digest
+
+
+def to_input(u8):
+    """u8 [B, H, W, 3] -> normalised float [B, 3, H, W] (model.preprocess, batched)."""
+    x = u8.permute(0, 3, 1, 2).float() / 255.0
+    mean = torch.tensor(MEAN).view(1, 3, 1, 1)
+    std = torch.tensor(STD).view(1, 3, 1, 1)
+    return (x - mean) / std
+
+
+def flip_batch(u8, gt, flip):
+    """Mirror the images with flip[b] set and negate their lights' x (the crop camera is
+    symmetric and the room-box distances are symmetric in x, so the ground truth stays exact)."""
+    return torch.where(flip.view(-1, 1, 1, 1), u8.flip(2), u8), flip_gt(gt, flip)
+
+
+def flip_gt(gt, flip):
+    g = dict(gt)
+    sx = torch.where(flip, -1.0, 1.0).view(-1, 1)
+    g["dir"] = torch.cat([gt["dir"][..., :1] * sx.unsqueeze(-1), gt["dir"][..., 1:]], -1)
+    return g
+
+
+def take(gt, idx):
+    return {k: v[idx] for k, v in gt.items()}
+
+
+# ---- losses -----------------------------------------------------------------------------------
+
+def radiance_tf(x, mode):
+    return torch.log1p(x) if mode == "log" else x
+
+
+def step1_loss(out, gt, udirs, cfg):
+    """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform)."""
+    pf = sg.pixel_sigma(cfg["map_width"])
+    pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
+                   prefilter_sigma=pf)
+    gm = sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, mask=gt["mask"], prefilter_sigma=pf)
+    lr = F.mse_loss(radiance_tf(pm, cfg["radiance"]), radiance_tf(gm, cfg["radiance"]))
+    la = F.mse_loss(radiance_tf(out["ambient"].float(), cfg["radiance"]),
+                    radiance_tf(gt["ambient"], cfg["radiance"]))
+    return cfg["w_r"] * lr + cfg["w_a"] * la, {"map": float(lr), "amb": float(la)}
+
+
+def match(pred_dir, gt):
+    """Index [B, N] of the closest ground-truth light of each predicted light and whether it is
+    within 45 degrees (valid [B, N])."""
+    cos = torch.einsum("bnk,bmk->bnm", pred_dir, gt["dir"])
+    cos = cos.masked_fill(gt["mask"][:, None, :] == 0, -2.0)
+    best, idx = cos.max(-1)
+    return idx, best >= COS45
+
+
+def step2_loss(out, gt, cfg):
+    """Ambient L2 + sum over matched predicted lights of L2 on distance, size and colour."""
+    idx, valid = match(out["dir"], gt)
+    v = valid.float()
+    g = lambda k: torch.gather(gt[k], 1, idx) if gt[k].dim() == 2 else torch.gather(  # noqa: E731
+        gt[k], 1, idx.unsqueeze(-1).expand(-1, -1, gt[k].shape[-1]))
+    ld = ((out["distance"] - g("dist")) ** 2 * v).sum(1).mean()
+    ls = ((out["size"] - g("size")) ** 2 * v).sum(1).mean()
+    lc = (((radiance_tf(out["rgb"], cfg["radiance"]) - radiance_tf(g("rgb"), cfg["radiance"])) ** 2)
+          .mean(-1) * v).sum(1).mean()
+    la = F.mse_loss(radiance_tf(out["ambient"], cfg["radiance"]),
+                    radiance_tf(gt["ambient"], cfg["radiance"]))
+    total = la + ld + ls + lc
+    return total, {"amb": float(la), "dist": float(ld), "size": float(ls), "rgb": float(lc),
+                   "matched": float(v.mean())}
+
+
+# ---- checkpoints ------------------------------------------------------------------------------
+
+def save_ckpt(path, model, opt, state, cfg):
+    obj = {"model": model.state_dict(), "optimizer": opt.state_dict() if opt else None,
+           "state": state, "config": cfg,
+           "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state(),
+                   "python": random.getstate()}}
+    tmp = path + ".tmp"
+    torch.save(obj, tmp)
+    os.replace(tmp, path)
+
+
+def load_ckpt(path):
+    try:
+        return torch.load(path, map_location="cpu")
+    except Exception as e:  # pickle / zip errors come in many types
+        raise ValueError(f"{path}: cannot read checkpoint ({type(e).__name__}: {e})") from None
+
+
+def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
+    ck = load_ckpt(ckpt_path)
+    if not isinstance(ck, dict) or "model" not in ck or "config" not in ck:
+        raise ValueError(f"{ckpt_path}: not a train.py checkpoint (no model/config)")
+    cfg = ck["config"]
+    model = ParLightNet(cfg["n_lights"], tuple(cfg["input"])).eval()
+    model.load_state_dict(ck["model"])
+    with open(ckpt_path, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    st = ck.get("state", {})
+    prov = (f"trained by tools/train/train.py: checkpoint {os.path.basename(ckpt_path)} sha256 "
+            f"{digest[:16]}, step {st.get('phase')} epoch {st.get('epoch')}, data "
+            f"{cfg.get('data')} (index sha256 {str(cfg.get('data_index_sha256'))[:16]}), input "
+            f"{cfg['input'][0]}x{cfg['input'][1]}, torch {torch.__version__}, exported "
+            f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ}"
+            + (f", encoder initialised from {os.path.basename(cfg['init'])}" if cfg.get("init")
+               else ", from scratch (no pretrained encoder)")
+            + provenance_extra)
+    tensors = export.checked_tensors(model)
+    errs = export.check_fold(model, tensors)
+    if not max(errs.values()) < 1e-5:
+        raise RuntimeError(f"fold check failed: {errs}")
+    return plm.write_plm(out, export.metadata(model, prov), tensors, force=force)
+
+
+# ---- training ---------------------------------------------------------------------------------
+
+def lr_at(cfg, epoch):
+    return cfg["lr"] * 0.5 ** (epoch // cfg["halve_every"])
+
+
+def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32):
+    if len(idx) == 0:
+        return float("nan")
+    model.eval()
+    tot = 0.0
+    with torch.no_grad():
+        for i in range(0, len(idx), bs):
+            j = idx[i:i + bs]
+            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
+                out = model(to_input(imgs[j]))
+            out = {k: v.float() for k, v in out.items()}
+            g = take(gt, j)
+            loss = step1_loss(out, g, udirs, cfg)[0] if phase == 1 else step2_loss(out, g, cfg)[0]
+            tot += float(loss) * len(j)
+    return tot / len(idx)
+
+
+def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
+    n_batches = len(tr) // cfg["batch"]
+    if n_batches == 0:
+        raise ValueError(f"{len(tr)} training crops: fewer than one batch of {cfg['batch']}")
+    last_save = time.time()
+    while state["epoch"] < cfg["step1_epochs"]:
+        ep = state["epoch"]
+        for grp in opt.param_groups:
+            grp["lr"] = lr_at(cfg, ep)
+        gen = torch.Generator().manual_seed(cfg["seed"] * 100003 + ep)
+        perm = tr[torch.randperm(len(tr), generator=gen)]
+        flips = torch.rand(len(tr), generator=gen) < 0.5
+        model.train()
+        t0, seen, resumed_at = time.time(), 0, state["batch"]
+        sums = state.setdefault("sums", {"loss": 0.0, "map": 0.0, "amb": 0.0, "n": 0})
+        for b in range(state["batch"], n_batches):
+            j = perm[b * cfg["batch"]:(b + 1) * cfg["batch"]]
+            u8, g = flip_batch(imgs[j], take(gt, j), flips[b * cfg["batch"]:(b + 1) * cfg["batch"]])
+            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
+                out = model(to_input(u8))
+            loss, parts = step1_loss(out, g, udirs, cfg)
+            if not torch.isfinite(loss):
+                raise RuntimeError(f"step 1 epoch {ep} batch {b}: loss is {float(loss)}")
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            sums["loss"] += float(loss)
+            sums["map"] += parts["map"]
+            sums["amb"] += parts["amb"]
+            sums["n"] += 1
+            seen += len(j)
+            state["batch"] = b + 1
+            state["steps"] = state.get("steps", 0) + 1
+            if cfg["max_steps"] and state["steps"] >= cfg["max_steps"]:
+                save_ckpt(paths["last"], model, opt, state, cfg)
+                log_line(paths["log"], f"step1 epoch {ep} batch {b + 1}/{n_batches}: stopped at "
+                         f"--max-steps {cfg['max_steps']}, loss {float(loss):.6g}")
+                return False
+            if time.time() - last_save > 60 * cfg["ckpt_minutes"]:
+                save_ckpt(paths["last"], model, opt, state, cfg)
+                last_save = time.time()
+                log_line(paths["log"], f"step1 epoch {ep + 1} batch {b + 1}/{n_batches}: "
+                         f"checkpoint; mean loss so far {sums['loss'] / sums['n']:.6g}, "
+                         f"{seen / max(time.time() - t0, 1e-9):.2f} img/s")
+        dt = time.time() - t0
+        n = max(sums["n"], 1)
+        vl = evaluate(model, imgs, gt, va, udirs, cfg, 1)
+        log_line(paths["log"], f"step1 epoch {ep + 1}/{cfg['step1_epochs']} lr {lr_at(cfg, ep):.3g} "
+                 f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}) "
+                 f"val {vl:.6g} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
+                 + (" (resumed epoch: rate over its last part)" if resumed_at else ""))
+        state.update(epoch=ep + 1, batch=0)
+        state.pop("sums", None)
+        save_ckpt(paths["last"], model, opt, state, cfg)
+        last_save = time.time()
+    save_ckpt(paths["step1"], model, opt, state, cfg)
+    return True
+
+
+STEP2_HEADS = ("head_size", "head_rgb", "head_ambient", "head_dist")
+
+
+def step2_features(model, imgs, idx, cfg, bs=32):
+    """z, h and directions of each crop in idx, unflipped and flipped (frozen network);
+    None for no crops."""
+    if len(idx) == 0:
+        return None
+    model.eval()
+    feats = {f: {"z": [], "h": [], "dir": []} for f in (0, 1)}
+    with torch.no_grad():
+        for i in range(0, len(idx), bs):
+            j = idx[i:i + bs]
+            for f in (0, 1):
+                u8 = imgs[j].flip(2) if f else imgs[j]
+                with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
+                    z = model.latent(to_input(u8))
+                z = z.float()
+                h = F.relu(model.fc(z))
+                d = F.normalize(model.head_dir(h).view(-1, model.n_lights, 3), dim=-1)
+                feats[f]["z"].append(z)
+                feats[f]["h"].append(h)
+                feats[f]["dir"].append(d)
+    return {f: {k: torch.cat(v) for k, v in d.items()} for f, d in feats.items()}
+
+
+def heads(model, z, h, d):
+    n = model.n_lights
+    return {"dir": d, "distance": model.head_dist(z, d),
+            "size": F.softplus(model.head_size(h)),
+            "rgb": F.softplus(model.head_rgb(h)).view(-1, n, 3),
+            "ambient": F.softplus(model.head_ambient(h))}
+
+
+def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None):
+    params = [p for name in STEP2_HEADS for p in getattr(model, name).parameters()]
+    for p in model.parameters():
+        p.requires_grad_(False)
+    for p in params:
+        p.requires_grad_(True)
+    opt = torch.optim.Adam(params, lr=cfg["lr"], betas=(0.9, 0.999))
+    if resume_opt:
+        opt.load_state_dict(resume_opt)
+    t0 = time.time()
+    ftr = step2_features(model, imgs, tr, cfg)
+    fva = step2_features(model, imgs, va, cfg)
+    log_line(paths["log"], f"step2: features of {len(tr)} + {len(va)} crops (x2 flips) in "
+             f"{time.time() - t0:.0f} s")
+    gtr, gva = take(gt, tr), take(gt, va)
+    bs = cfg["batch"]
+    while state["epoch"] < cfg["step2_epochs"]:
+        ep = state["epoch"]
+        for grp in opt.param_groups:
+            grp["lr"] = lr_at(cfg, ep)
+        gen = torch.Generator().manual_seed(cfg["seed"] * 100003 + 50000 + ep)
+        perm = torch.randperm(len(tr), generator=gen)
+        flips = torch.rand(len(tr), generator=gen) < 0.5
+        sums, n = {}, 0
+        for b in range(0, len(tr) - bs + 1, bs):
+            j = perm[b:b + bs]
+            fl = flips[b:b + bs]
+            sel = lambda k: torch.where(fl.view(-1, *[1] * (ftr[0][k].dim() - 1)),  # noqa: E731
+                                        ftr[1][k][j], ftr[0][k][j])
+            g = flip_gt(take(gtr, j), fl)
+            out = heads(model, sel("z"), sel("h"), sel("dir"))
+            loss, parts = step2_loss(out, g, cfg)
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            for k, v in [("loss", float(loss))] + list(parts.items()):
+                sums[k] = sums.get(k, 0.0) + v
+            n += 1
+        with torch.no_grad():
+            vl = float(step2_loss(heads(model, fva[0]["z"], fva[0]["h"], fva[0]["dir"]), gva,
+                                  cfg)[0]) if fva is not None else float("nan")
+        n = max(n, 1)
+        log_line(paths["log"], f"step2 epoch {ep + 1}/{cfg['step2_epochs']} lr {lr_at(cfg, ep):.3g} "
+                 + " ".join(f"{k} {v / n:.6g}" for k, v in sums.items()) + f" val {vl:.6g}")
+        state.update(epoch=ep + 1)
+        save_ckpt(paths["last"], model, opt, state, cfg)
+
+
+def parse_hw(text):
+    return export.parse_hw(text)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Two-step training of ParLightNet (paper sec. 3.3) "
+                                 "with checkpoints and automatic resume.")
+    ap.add_argument("--data", default="/work/cache/train-data")
+    ap.add_argument("--ckpt-dir", default="/work/cache/train-ckpt")
+    ap.add_argument("--log", default="/work/cache/train-log.txt")
+    ap.add_argument("--input", type=parse_hw, default=(96, 128), metavar="HxW")
+    ap.add_argument("--n-lights", type=int, default=3, choices=(2, 3, 5))
+    ap.add_argument("--batch", type=int, default=16)
+    ap.add_argument("--lr", type=float, default=1e-3)
+    ap.add_argument("--halve-every", type=int, default=25, metavar="EPOCHS")
+    ap.add_argument("--step1-epochs", type=int, default=60)
+    ap.add_argument("--step2-epochs", type=int, default=50)
+    ap.add_argument("--map-width", type=int, default=64, help="SG map width for the step-1 loss")
+    ap.add_argument("--radiance", choices=("log", "linear"), default="log")
+    ap.add_argument("--w-r", type=float, default=20.0)
+    ap.add_argument("--w-a", type=float, default=1.0)
+    ap.add_argument("--val-panos", type=int, default=4)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--ckpt-minutes", type=float, default=5.0)
+    ap.add_argument("--max-steps", type=int, default=0, help="stop after this many step-1 "
+                    "batches in total (tests, sanity checks)")
+    ap.add_argument("--limit", type=int, default=0, help="only the first N crops of the index")
+    ap.add_argument("--init", metavar="CKPT", help="start step 1 from the encoder (features.*) "
+                    "of this checkpoint, e.g. tools/train/distill.py's (ignored on resume)")
+    ap.add_argument("--export", metavar="OUT.plm", help="export the final model here")
+    ap.add_argument("--export-only", nargs=2, metavar=("CKPT", "OUT.plm"))
+    ap.add_argument("--force", action="store_true", help="replace an existing export")
+    args = ap.parse_args(argv)
+    torch.set_num_threads(max(1, args.threads))
+    torch.set_flush_denormal(True)   # denormals made some CPU steps 20x slower (measured)
+
+    try:
+        if args.export_only:
+            ck, out = args.export_only
+            if os.path.lexists(out) and not args.force:
+                raise ValueError(f"{out} exists; not replacing it (use --force)")
+            size = export_ckpt(ck, out, force=args.force)
+            print(f"wrote {out}: {size:,} bytes")
+            return 0
+        for name, v, lo in (("--batch", args.batch, 1), ("--halve-every", args.halve_every, 1),
+                            ("--step1-epochs", args.step1_epochs, 0),
+                            ("--step2-epochs", args.step2_epochs, 0), ("--val-panos", args.val_panos, 0),
+                            ("--map-width", args.map_width, 8)):
+            if v < lo:
+                raise ValueError(f"{name} {v}: expected >= {lo}")
+        if args.map_width % 2:
+            raise ValueError(f"--map-width {args.map_width}: expected an even number")
+        if not (args.lr > 0 and math.isfinite(args.lr)):
+            raise ValueError(f"--lr {args.lr}: expected a positive number")
+        if args.export and os.path.lexists(args.export) and not args.force:
+            raise ValueError(f"{args.export} exists; not replacing it (use --force)")
+        os.makedirs(args.ckpt_dir, exist_ok=True)
+        paths = {"last": os.path.join(args.ckpt_dir, "last.pt"),
+                 "step1": os.path.join(args.ckpt_dir, "step1.pt"),
+                 "final": os.path.join(args.ckpt_dir, "final.pt"), "log": args.log}
+
+        t0 = time.time()
+        imgs, gt, val, held, digest = load_dataset(args.data, args.input, args.val_panos, args.limit)
+        tr = torch.nonzero(~val).flatten()
+        va = torch.nonzero(val).flatten()
+        cfg = {"data": os.path.abspath(args.data), "data_index_sha256": digest,
+               "input": list(args.input), "n_lights": args.n_lights, "batch": args.batch,
+               "lr": args.lr, "halve_every": args.halve_every, "seed": args.seed,
+               "step1_epochs": args.step1_epochs, "step2_epochs": args.step2_epochs,
+               "map_width": args.map_width, "radiance": args.radiance, "w_r": args.w_r,
+               "w_a": args.w_a, "val_panos": args.val_panos, "held_out": held,
+               "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
+               "limit": args.limit, "torch": torch.__version__,
+               "init": os.path.abspath(args.init) if args.init else None}
+        udirs = sg.equirect_dirs(args.map_width)
+
+        torch.manual_seed(args.seed)
+        model = ParLightNet(args.n_lights, args.input)
+        opt = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.9, 0.999))
+        state = {"phase": 1, "epoch": 0, "batch": 0, "steps": 0}
+        step2_opt = None
+        if os.path.exists(paths["last"]):
+            ck = load_ckpt(paths["last"])
+            old = ck.get("config", {})
+            diff = [k for k in RESUME_KEYS if old.get(k) != cfg.get(k)]
+            if diff:
+                raise ValueError(f"{paths['last']}: made with another configuration ({', '.join(diff)} "
+                                 f"differ); use another --ckpt-dir")
+            cfg["init"] = old.get("init")   # the run's starting point, whatever --init says now
+            model.load_state_dict(ck["model"])
+            state = ck["state"]
+            if state["phase"] == 1:
+                opt.load_state_dict(ck["optimizer"])
+            else:
+                step2_opt = ck["optimizer"]
+            torch.set_rng_state(ck["rng"]["torch"])
+            np.random.set_state(ck["rng"]["numpy"])
+            random.setstate(ck["rng"]["python"])
+            log_line(args.log, f"resumed {paths['last']}: step {state['phase']} epoch "
+                     f"{state['epoch']} batch {state['batch']}")
+        else:
+            if args.init:
+                ck = load_ckpt(args.init)
+                sd = ck.get("model") if isinstance(ck, dict) else None
+                feats = {k[len("features."):]: v for k, v in (sd or {}).items()
+                         if k.startswith("features.")}
+                if not feats:
+                    raise ValueError(f"{args.init}: no features.* tensors in its 'model'")
+                model.features.load_state_dict(feats)
+            log_line(args.log, f"start: {len(tr)} train + {len(va)} val crops (held out {held}), "
+                     f"config {json.dumps({k: v for k, v in cfg.items() if k != 'held_out'})}")
+        log_line(args.log, f"loaded {len(imgs)} crops in {time.time() - t0:.0f} s")
+
+        if state["phase"] == 1:
+            if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
+                return 0
+            state = {"phase": 2, "epoch": 0, "batch": 0, "steps": state.get("steps", 0)}
+            save_ckpt(paths["last"], model, None, state, cfg)
+        train_step2(model, imgs, gt, tr, va, cfg, state, paths, step2_opt)
+        save_ckpt(paths["final"], model, None, state, cfg)
+        log_line(args.log, f"done: {paths['final']}")
+        if args.export:
+            size = export_ckpt(paths["final"], args.export, force=args.force)
+            log_line(args.log, f"exported {args.export} ({size:,} bytes)")
+    except (OSError, ValueError, RuntimeError, plm.PlmError) as e:
+        print(f"train: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
