@@ -18,17 +18,25 @@ static void help(FILE *f)
         f,
         "usage: parlight quantize --model F.plm --calib PATH --out Q.plm\n"
         "                         [--method minmax|percentile|entropy|mse] [--percentile P]\n"
-        "                         [--keep-float LAYER,...] [--max-frames K] [--force]\n\n"
+        "                         [--keep-float LAYER,...] [--max-frames K] [--headroom F]\n"
+        "                         [--force]\n\n"
         "Runs the float model F.plm over the calibration frames (an image, a video or a\n"
         "directory of frames), picks every activation's int8 range with the method, folds the\n"
         "batch norms, the input normalisation and the per-segment scales into per-output-channel\n"
-        "symmetric int8 weights, and writes the int8 model Q.plm (docs/QUANT.md).\n\n"
+        "symmetric int8 weights, and writes the int8 model Q.plm (docs/QUANT.md).\n"
+        "The method sets the ranges of the bottleneck and fc outputs; the dense blocks'\n"
+        "channels keep their calibrated [min, max]. Use many varied frames (100+ real frames\n"
+        "of the kind the model will see: tools/make-calib-frames.sh); a few frames give\n"
+        "ranges that new frames exceed.\n\n"
         "  --model F.plm       float (fp32) model\n"
         "  --calib PATH        calibration frames; keep them disjoint from the check frames\n"
         "  --method M          minmax (default), percentile, entropy (KL) or mse\n"
         "  --percentile P      for --method percentile, in (50, 100] (default 99.99)\n"
         "  --keep-float L,...  layers kept float: fc (the heads are always float)\n"
         "  --max-frames K      use at most K good frames (default: all)\n"
+        "  --headroom F        widen every calibrated range F times, F in [1, 16] (default 1):\n"
+        "                      coarser steps, but frames beyond the calibration frames'\n"
+        "                      ranges do not saturate\n"
         "  --out Q.plm         the int8 model to write\n"
         "  --force             replace Q.plm if it exists\n"
         "  -v, --verbose       one line per calibration frame on stderr\n");
@@ -52,6 +60,7 @@ int cmd_quantize(int argc, char **argv)
                                          {"percentile", required_argument, 0, 'p'},
                                          {"keep-float", required_argument, 0, 'k'},
                                          {"max-frames", required_argument, 0, 'n'},
+                                         {"headroom", required_argument, 0, 'H'},
                                          {"out", required_argument, 0, 'o'},
                                          {"force", no_argument, 0, 'f'},
                                          {"verbose", no_argument, 0, 'v'},
@@ -60,7 +69,7 @@ int cmd_quantize(int argc, char **argv)
     pl_quantize_opts o = {.method = PL_CALIB_MINMAX, .percentile = 99.99};
     int force = 0, verbose = 0, c;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:c:M:p:k:n:o:fvh", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:c:M:p:k:n:H:o:fvh", opts, NULL)) != -1) {
         switch (c) {
         case 'm':
             o.float_path = optarg;
@@ -90,6 +99,18 @@ int cmd_quantize(int argc, char **argv)
         case 'k':
             o.keep_float = optarg;
             break;
+        case 'H': {
+            char *end;
+            errno = 0;
+            o.headroom = strtod(optarg, &end);
+            if (errno || end == optarg || *end || !(o.headroom >= 1 && o.headroom <= 16)) {
+                fprintf(stderr,
+                        "parlight quantize: --headroom '%s': expected a number in [1, 16]\n",
+                        optarg);
+                return 2;
+            }
+            break;
+        }
         case 'n':
             if (cli_int("quantize", "--max-frames", optarg, 1, 1000000, &o.max_frames) < 0)
                 return 2;

@@ -94,6 +94,39 @@ static int consumer_bounds(const pl_plm *f, int blk, double *lo, double *hi)
     return PL_OK;
 }
 
+/* Per-channel ranges from a finite calibration set are too narrow for the channels that saw few
+ * values or only small ones: deep, low-resolution layers (block 4 sees 48 pixels a frame) and
+ * above all the fc (ONE value per channel and frame). Values beyond them saturate on new frames,
+ * and saturation, not rounding, dominated the int8 error (docs/QUANT.md, "What limited int8").
+ * So each channel's step is floored at a fraction of the activation's largest step: fc is per
+ * tensor (FLOOR_FC = 1, as TFLite's FC output), the bottleneck ReLU outputs keep at most a 2x
+ * finer step than their widest channel, the block channels at most 4x (they keep most of their
+ * per-channel resolution, which matters because their consumers' BNs scale each channel). */
+#define FLOOR_FC 1.0
+#define FLOOR_RELU 0.5
+#define FLOOR_BLOCK 0.25
+
+static void floor_scales(struct acts *a, int i)
+{
+    double f = FLOOR_RELU;
+    if (a->block[i] >= 0) f = FLOOR_BLOCK;
+    if (!strcmp(a->names[i], "fc")) f = FLOOR_FC;
+    double mx = 0;
+    for (int k = 0; k < a->channels[i]; k++)
+        mx = fmax(mx, a->q[i][k].scale);
+    const double s = (double)(float)(f * mx);
+    for (int k = 0; k < a->channels[i]; k++) {
+        pl_qparams *q = &a->q[i][k];
+        if (!(q->scale < s)) continue;
+        if (a->block[i] >= 0) { /* keep the range's start (the consumers' clamp), widen the top */
+            const double lo = (double)q->scale * (-128.0 - q->zero_point);
+            pl_qparams_clipped(lo, lo + 255.0 * s, q);
+        } else { /* ReLU output, zero point -128 */
+            q->scale = (float)s;
+        }
+    }
+}
+
 static int act_index(const struct acts *a, const char *name)
 {
     for (int k = 0; k < a->n; k++) {
@@ -299,6 +332,10 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
     if (rc == PL_OK) rc = pl_plm_writer_meta(q->w, "quant_method", pl_calib_method_name(o->method));
     snprintf(text, sizeof text, "%lld", (long long)rep->frames_good);
     if (rc == PL_OK) rc = pl_plm_writer_meta(q->w, "quant_calib_frames", text);
+    if (rc == PL_OK && o->headroom > 1) {
+        snprintf(text, sizeof text, "%g", o->headroom);
+        rc = pl_plm_writer_meta(q->w, "quant_headroom", text);
+    }
     if (rc == PL_OK && o->method == PL_CALIB_PERCENTILE) {
         snprintf(text, sizeof text, "%g", o->percentile);
         rc = pl_plm_writer_meta(q->w, "quant_percentile", text);
@@ -478,6 +515,9 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
     int keep_fc, rc;
     if (o->method == PL_CALIB_PERCENTILE && !(o->percentile > 50 && o->percentile <= 100))
         return pl_error(PL_E_ARG, "percentile %g: expected (50, 100]", o->percentile);
+    if (o->headroom != 0 && !(o->headroom >= 1 && o->headroom <= 16))
+        return pl_error(PL_E_ARG, "headroom %g: expected [1, 16]", o->headroom);
+    const double headroom = o->headroom > 0 ? o->headroom : 1.0;
     if ((rc = parse_keep_float(o->keep_float, &keep_fc)) < 0) return rc;
 
     pl_model *m = NULL;
@@ -556,7 +596,12 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
         }
         for (int k = 0; k < a->channels[i]; k++) {
             double lo, hi;
-            rc = pl_hist_range(&a->hist[i][k], o->method, o->percentile, a->relu[i], &lo, &hi);
+            /* a block channel keeps its whole calibrated range, whatever the method: a value
+             * clipped there is seen by every later consumer, each scaling the error by its BN */
+            const pl_calib_method meth = a->block[i] >= 0 ? PL_CALIB_MINMAX : o->method;
+            rc = pl_hist_range(&a->hist[i][k], meth, o->percentile, a->relu[i], &lo, &hi);
+            lo *= headroom;
+            hi *= headroom;
             if (rc == PL_OK &&
                 a->block[i] >= 0) { /* a block buffer segment: clip to its consumers */
                 const int c = a->ch0[i] + k, b = a->block[i];
@@ -577,6 +622,8 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
             }
         }
     }
+    for (int i = 0; i < a->n; i++)
+        floor_scales(a, i);
     rep->n_activations = a->n;
     if ((rc = pl_plm_writer_create(&w)) < 0) goto done;
     struct qctx q = {.f = &file, .w = w, .a = a, .keep_fc = keep_fc};

@@ -20,6 +20,9 @@ typedef struct pl_quantize_opts {
     double percentile;      /* for PL_CALIB_PERCENTILE, in (50, 100]; e.g. 99.99 */
     const char *keep_float; /* comma-separated layers kept float ("fc"), or NULL */
     int max_frames;         /* 0: all */
+    double headroom;        /* every calibrated range is widened by this factor, in [1, 16];
+                               0 means 1 (docs/QUANT.md: trades resolution for frames that go
+                               beyond the calibration frames) */
     /* called after each calibration frame (good or bad); may be NULL */
     void (*progress)(void *ctx, int64_t good, int64_t bad, const char *frame, const char *error);
     void *progress_ctx;
