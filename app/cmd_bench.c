@@ -14,6 +14,7 @@
 #include "kernels/isa.h"
 #include "model/arch.h"
 #include "model/plm.h"
+#include "model/profile.h"
 #include "parlight.h"
 #include "port/image.h"
 #include "port/util.h"
@@ -22,7 +23,7 @@ static void help(FILE *f)
 {
     fprintf(
         f, "usage: parlight bench --model M.plm [--threads N] [--runs R] [--warmup W]\n"
-           "                      [--input IMAGE] [--json]\n\n"
+           "                      [--input IMAGE] [--layers | --layers-cpu] [--json]\n\n"
            "Runs R estimates after W warm-up ones on one frame and prints the median, min and\n"
            "max milliseconds per frame (preprocess + network + heads, as pl_estimate_rgb8 spends\n"
            "them), the instruction-set path (PARLIGHT_ISA forces one), the thread count, GMAC/s\n"
@@ -34,11 +35,18 @@ static void help(FILE *f)
            "  --input IMAGE   the frame (a still image, any size of at least 8 x 8; it is\n"
            "                  cropped and resized as estimate does). Default: a fixed\n"
            "                  deterministic pattern of the model's input size\n"
+           "  --layers        also the time of each stage of the network (stem, max pool,\n"
+           "                  each block's 1x1s and 3x3s, transitions, norm5, heads):\n"
+           "                  median and min over the runs, ms per frame\n"
+           "  --layers-cpu    the same in the calling thread's CPU time, which other\n"
+           "                  processes disturb less than wall time (use with --threads 1)\n"
            "  --json          one JSON object on stdout instead of the table: model, precision,\n"
            "                  input_h, input_w, n_lights, isa, threads, runs, warmup, frame,\n"
            "                  median_ms, min_ms, max_ms, mean_ms, median_infer_ms,\n"
            "                  median_cpu_ms (CPU time of all threads per frame),\n"
-           "                  gmac_per_frame, gmac_per_s, peak_rss_kib\n\n"
+           "                  gmac_per_frame, gmac_per_s, peak_rss_kib (with --layers:\n"
+           "                  stage_clock (wall or thread_cpu) and stages, [{stage,\n"
+           "                  median_ms, min_ms}] in network order)\n\n"
            "GMAC counts the multiply-accumulates of the DenseNet-121 graph as written (transition\n"
            "convolutions before their pooling, as PyTorch runs them), the FC and the heads, from\n"
            "the model's input size and metadata: 2.777 GMAC at 192 x 256 (2.775 of it in the\n"
@@ -174,11 +182,13 @@ int cmd_bench(int argc, char **argv)
         {"model", required_argument, 0, 'm'}, {"threads", required_argument, 0, 't'},
         {"runs", required_argument, 0, 'r'},  {"warmup", required_argument, 0, 'w'},
         {"input", required_argument, 0, 'i'}, {"json", no_argument, 0, 'j'},
-        {"help", no_argument, 0, 'h'},        {0, 0, 0, 0}};
+        {"layers", no_argument, 0, 'l'},      {"layers-cpu", no_argument, 0, 'L'},
+        {"help", no_argument, 0, 'h'},
+        {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL;
-    int threads = 1, runs = 30, warmup = 3, json = 0, c;
+    int threads = 1, runs = 30, warmup = 3, json = 0, layers = 0, c;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:t:r:w:i:jh", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:t:r:w:i:jlLh", opts, NULL)) != -1) {
         switch (c) {
         case 'm':
             model_path = optarg;
@@ -197,6 +207,12 @@ int cmd_bench(int argc, char **argv)
             break;
         case 'j':
             json = 1;
+            break;
+        case 'l':
+            layers = 1;
+            break;
+        case 'L':
+            layers = 2;
             break;
         case 'h':
             help(stdout);
@@ -221,7 +237,8 @@ int cmd_bench(int argc, char **argv)
     int rc = 1;
     pl_model *model = NULL;
     pl_image_u8 frame = {0};
-    double *total = NULL, *infer = NULL, *cpu = NULL;
+    double *total = NULL, *infer = NULL, *cpu = NULL, *stage = NULL;
+    pl_profile prof;
     pl_isa isa;
     if (pl_isa_select(&isa) < 0) {
         fprintf(stderr, "parlight bench: %s\n", pl_last_error());
@@ -257,14 +274,21 @@ int cmd_bench(int argc, char **argv)
     total = malloc((size_t)runs * sizeof *total);
     infer = malloc((size_t)runs * sizeof *infer);
     cpu = malloc((size_t)runs * sizeof *cpu);
-    if (!total || !infer || !cpu) {
+    stage = malloc((size_t)runs * PL_PROF_N * sizeof *stage);
+    if (!total || !infer || !cpu || !stage) {
         fprintf(stderr, "parlight bench: out of memory for %d runs\n", runs);
         goto out;
     }
 
+    if (layers && pl_model_set_profile(model, &prof) < 0) {
+        fprintf(stderr, "parlight bench: %s\n", pl_last_error());
+        goto out;
+    }
     pl_lighting L;
     pl_timing tm;
     for (int i = 0; i < warmup + runs; i++) {
+        memset(&prof, 0, sizeof prof);
+        prof.thread_cpu = layers == 2;
         const double c0 = cpu_ms();
         const int64_t t0 = pl_now_ns();
         if (pl_estimate_rgb8(model, frame.data, frame.width, frame.height, frame.stride, &L, &tm) <
@@ -278,6 +302,8 @@ int cmd_bench(int argc, char **argv)
             total[i - warmup] = (double)(t1 - t0) * 1e-6;
             infer[i - warmup] = tm.infer_ms;
             cpu[i - warmup] = c1 - c0;
+            for (int s = 0; s < PL_PROF_N; s++)
+                stage[(size_t)s * runs + (size_t)(i - warmup)] = (double)prof.ns[s] * 1e-6;
         }
     }
     double mean = 0;
@@ -287,6 +313,8 @@ int cmd_bench(int argc, char **argv)
     qsort(total, (size_t)runs, sizeof *total, cmp_double);
     qsort(infer, (size_t)runs, sizeof *infer, cmp_double);
     qsort(cpu, (size_t)runs, sizeof *cpu, cmp_double);
+    for (int s = 0; s < PL_PROF_N; s++)
+        qsort(stage + (size_t)s * runs, (size_t)runs, sizeof *stage, cmp_double);
     const double med = median_sorted(total, runs), med_infer = median_sorted(infer, runs);
     const double med_cpu = median_sorted(cpu, runs);
     const double gmac = (double)macs * 1e-9, gmacs = med > 0 ? gmac / (med * 1e-3) : 0;
@@ -303,8 +331,17 @@ int cmd_bench(int argc, char **argv)
         json_string(input ? input : "synthetic");
         printf(",\"median_ms\":%.4f,\"min_ms\":%.4f,\"max_ms\":%.4f,\"mean_ms\":%.4f,"
                "\"median_infer_ms\":%.4f,\"median_cpu_ms\":%.4f,\"gmac_per_frame\":%.6f,"
-               "\"gmac_per_s\":%.3f,\"peak_rss_kib\":%ld}\n",
+               "\"gmac_per_s\":%.3f,\"peak_rss_kib\":%ld",
                med, total[0], total[runs - 1], mean, med_infer, med_cpu, gmac, gmacs, rss_kib);
+        if (layers) {
+            printf(",\"stage_clock\":\"%s\",\"stages\":[", layers == 2 ? "thread_cpu" : "wall");
+            for (int s = 0; s < PL_PROF_N; s++)
+                printf("%s{\"stage\":\"%s\",\"median_ms\":%.4f,\"min_ms\":%.4f}", s ? "," : "",
+                       pl_prof_stage_name(s), median_sorted(stage + (size_t)s * runs, runs),
+                       stage[(size_t)s * runs]);
+            printf("]");
+        }
+        printf("}\n");
     } else {
         printf("model      %s (%s, %d x %d, N=%d)\n", model_path, info.precision, info.input_w,
                info.input_h, info.n_lights);
@@ -318,12 +355,25 @@ int cmd_bench(int argc, char **argv)
         printf("CPU        %.3f ms/frame, median, all threads\n", med_cpu);
         printf("GMAC/s     %.1f (%.3f GMAC per frame, at the median)\n", gmacs, gmac);
         printf("peak RSS   %.1f MiB\n", (double)rss_kib / 1024.0);
+        if (layers) {
+            double sum = 0;
+            for (int s = 0; s < PL_PROF_N; s++)
+                sum += median_sorted(stage + (size_t)s * runs, runs);
+            printf("%-17s median ms   min ms   share\n",
+                   layers == 2 ? "stage (CPU)" : "stage (wall)");
+            for (int s = 0; s < PL_PROF_N; s++) {
+                const double m = median_sorted(stage + (size_t)s * runs, runs);
+                printf("  %-14s %9.3f %8.3f %6.1f%%\n", pl_prof_stage_name(s), m,
+                       stage[(size_t)s * runs], sum > 0 ? 100.0 * m / sum : 0.0);
+            }
+        }
     }
     rc = 0;
 out:
     free(total);
     free(infer);
     free(cpu);
+    free(stage);
     pl_image_u8_free(&frame);
     pl_model_free(model);
     return rc;

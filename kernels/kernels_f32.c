@@ -6,6 +6,8 @@
 
 #if defined(__x86_64__)
 #include "kernels/x86/nn_f32_x86.h"
+#elif defined(__aarch64__)
+#include "kernels/arm/nn_f32_arm.h"
 #endif
 
 void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
@@ -44,6 +46,20 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
         t->maxpool_name = "nn_maxpool2d_f32__avx2";
         t->avgpool = nn_avgpool2d_f32__avx2;
         t->avgpool_name = "nn_avgpool2d_f32__avx2";
+    }
+#elif defined(__aarch64__)
+    /* NEON for every Arm path (dotprod and i8mm add nothing to fp32); bn_relu stays the
+     * reference loop, which gcc already vectorises for the AArch64 baseline */
+    if (pl_isa_includes(isa, PL_ISA_NEON)) {
+        t->packed = 1;
+        t->conv = nn_conv_gemm_f32_8x12__neon;
+        t->conv_name = "nn_conv_gemm_f32_8x12__neon";
+        t->fc = nn_fc_f32__neon;
+        t->fc_name = "nn_fc_f32__neon";
+        t->maxpool = nn_maxpool2d_f32__neon;
+        t->maxpool_name = "nn_maxpool2d_f32__neon";
+        t->avgpool = nn_avgpool2d_f32__neon;
+        t->avgpool_name = "nn_avgpool2d_f32__neon";
     }
 #else
     (void)isa;

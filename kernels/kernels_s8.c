@@ -6,6 +6,8 @@
 
 #if defined(__x86_64__)
 #include "kernels/x86/nn_s8_x86.h"
+#elif defined(__aarch64__)
+#include "kernels/arm/nn_s8_arm.h"
 #endif
 
 static int round4(int v)
@@ -72,6 +74,10 @@ size_t pl_s8_conv_packed_size(const pl_s8_conv *c, pl_s8_layout layout)
     switch (layout) {
     case PL_S8_LAYOUT_VNNI: per_group = PL_S8_OCB * 4; break;
     case PL_S8_LAYOUT_AVX2: per_group = PL_S8_OCB * 4 * 2; break;
+    case PL_S8_LAYOUT_SDOT: per_group = PL_S8_OCB * 4; break;
+    case PL_S8_LAYOUT_I8MM: /* groups of 8 channels per tap */
+        return nb * (size_t)c->k_h * (size_t)c->k_w * (size_t)((c->cs + 7) / 8) * PL_S8_OCB * 8 +
+               6 * nb * PL_S8_OCB * sizeof(int32_t);
     default: return 0;
     }
     return nb * groups * per_group + 6 * nb * PL_S8_OCB * sizeof(int32_t);
@@ -93,8 +99,10 @@ static int8_t w_at(const pl_s8_conv *c, const int8_t *weights, int o, int g, int
 }
 
 /* bias + (input_offset - 128) * sum(w), modulo 2^32 (see kernels_s8.h), then the multipliers
- * and the left and right shifts. */
-static void fold_bias(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, int32_t *dst)
+ * and the left and right shifts. signed_a: the kernel multiplies the signed x = u ^ 0x80 (Arm
+ * sdot/smull), so the correction is input_offset * sum(w). */
+static void fold_bias(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, int signed_a,
+                      int32_t *dst)
 {
     const size_t per_oc = (size_t)c->k_h * (size_t)c->k_w * (size_t)c->in_c;
     const int nb = blocks_of(c->out_c), np = nb * PL_S8_OCB;
@@ -116,7 +124,8 @@ static void fold_bias(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
         int64_t sum = 0;
         for (size_t i = 0; i < per_oc; i++)
             sum += weights[(size_t)o * per_oc + i];
-        const uint32_t corr = (uint32_t)((int64_t)(c->input_offset - 128) * sum);
+        const uint32_t corr =
+            (uint32_t)((int64_t)(c->input_offset - (signed_a ? 0 : 128)) * sum);
         dst[o] = (int32_t)((bias ? (uint32_t)bias[o] : 0u) + corr);
     }
 }
@@ -132,7 +141,7 @@ static void pack_vnni(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
                     *w++ = w_at(c, weights, b * PL_S8_OCB + j, g, e);
     c->w = mem;
     c->bias = (const int32_t *)(void *)w;
-    fold_bias(c, weights, bias, (int32_t *)(void *)w);
+    fold_bias(c, weights, bias, 0, (int32_t *)(void *)w);
 }
 
 static void pack_avx2(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
@@ -147,7 +156,46 @@ static void pack_avx2(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
                         *w++ = w_at(c, weights, b * PL_S8_OCB + j, g, 2 * half + e);
     c->w = mem;
     c->bias = (const int32_t *)(void *)w;
-    fold_bias(c, weights, bias, (int32_t *)(void *)w);
+    fold_bias(c, weights, bias, 0, (int32_t *)(void *)w);
+}
+
+/* Arm NEON / dotprod: the VNNI layout with the bias folded for signed A (kernels/arm). */
+static void pack_sdot(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
+{
+    const int groups = c->k_h * c->k_w * (c->cs / 4), nb = blocks_of(c->out_c);
+    int8_t *w = mem;
+    for (int b = 0; b < nb; b++)
+        for (int g = 0; g < groups; g++)
+            for (int j = 0; j < PL_S8_OCB; j++)
+                for (int e = 0; e < 4; e++)
+                    *w++ = w_at(c, weights, b * PL_S8_OCB + j, g, e);
+    c->w = mem;
+    c->bias = (const int32_t *)(void *)w;
+    fold_bias(c, weights, bias, 1, (int32_t *)(void *)w);
+}
+
+/* Arm i8mm: per block, tap and group of 8 channels (zero weights for [in_c, round8(cs))), the
+ * 16 output channels' 8 weights in a row: usmmla's B operand is 2 channels x 8 (u8 A, so the
+ * x86 bias folding). */
+static void pack_i8mm(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
+{
+    const int taps = c->k_h * c->k_w, g8 = (c->cs + 7) / 8, nb = blocks_of(c->out_c);
+    int8_t *w = mem;
+    for (int b = 0; b < nb; b++)
+        for (int t = 0; t < taps; t++)
+            for (int g = 0; g < g8; g++)
+                for (int j = 0; j < PL_S8_OCB; j++)
+                    for (int e = 0; e < 8; e++) {
+                        const int o = b * PL_S8_OCB + j, ch = 8 * g + e;
+                        *w++ = o < c->out_c && ch < c->in_c
+                                   ? weights[((size_t)o * (size_t)taps + (size_t)t) *
+                                                 (size_t)c->in_c +
+                                             (size_t)ch]
+                                   : 0;
+                    }
+    c->w = mem;
+    c->bias = (const int32_t *)(void *)w;
+    fold_bias(c, weights, bias, 0, (int32_t *)(void *)w);
 }
 
 /* One path's slots; `a` names the path of the A builders, pools and clamp. */
@@ -175,10 +223,24 @@ void pl_kernels_s8_fill(pl_kernels_s8 *t, pl_isa isa)
         *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx2, avxvnni);
     else if (pl_isa_includes(isa, PL_ISA_AVX2))
         *t = PL_S8_TABLE(PL_S8_LAYOUT_AVX2, pack_avx2, avx2, avx2);
+    (void)pack_sdot;
+    (void)pack_i8mm;
+#elif defined(__aarch64__)
+    /* the A builders, pools and clamp are NEON for every Arm path */
+    if (pl_isa_includes(isa, PL_ISA_I8MM))
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_I8MM, pack_i8mm, neon, i8mm);
+    else if (pl_isa_includes(isa, PL_ISA_DOTPROD))
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_SDOT, pack_sdot, neon, dotprod);
+    else if (pl_isa_includes(isa, PL_ISA_NEON))
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_SDOT, pack_sdot, neon, neon);
+    (void)pack_vnni;
+    (void)pack_avx2;
 #else
     (void)isa;
     (void)pack_vnni;
     (void)pack_avx2;
+    (void)pack_sdot;
+    (void)pack_i8mm;
 #endif
 }
 

@@ -53,6 +53,9 @@ typedef enum pl_s8_layout {
     PL_S8_LAYOUT_NONE,  /* the reference path: nothing is packed */
     PL_S8_LAYOUT_VNNI,  /* s8 [block][K/4][16][4] */
     PL_S8_LAYOUT_AVX2,  /* s16 [block][K/4][2][16][2] */
+    PL_S8_LAYOUT_SDOT,  /* Arm NEON and dotprod: the VNNI layout, the bias folded for signed A
+                           (kernels/arm/nn_s8_arm.h) */
+    PL_S8_LAYOUT_I8MM,  /* Arm i8mm: s8 [block][taps][round8(cs)/8][16][8] */
 } pl_s8_layout;
 
 /* A convolution prepared for a packed path: filled by pl_s8_conv_init, `w` and `bias` by the

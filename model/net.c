@@ -33,6 +33,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
@@ -40,6 +41,7 @@
 #include "model/net_s8.h"
 #include "model/observer.h"
 #include "model/plm.h"
+#include "model/profile.h"
 #include "port/image.h"
 #include "port/threads.h"
 #include "port/util.h"
@@ -88,6 +90,7 @@ struct pl_model {
     pl_s8 *s8; /* int8 models: the int8 executor (model/net_s8.c); the fields above stay unused */
     pl_layer_observer observer;
     void *observer_ctx;
+    pl_profile *prof; /* pl_model_set_profile, or NULL */
 };
 
 /* ---- loading ----------------------------------------------------------------------------- */
@@ -347,6 +350,9 @@ static int prepare_convs(pl_model *m)
         const size_t sf = pl_f32_conv_scratch_floats(&all[i]->p);
         if (sf > m->scratch_floats) m->scratch_floats = sf;
     }
+    /* a transition's BN + ReLU of one channel plane of block 1 (transition_pool) */
+    const size_t plane1 = (((size_t)(m->in_h / 4) * (size_t)(m->in_w / 4)) + 15) & ~(size_t)15;
+    if (plane1 > m->scratch_floats) m->scratch_floats = plane1;
     size_t bytes;
     if (!pl_mul_size(total, sizeof(float), &bytes))
         return pl_error(PL_E_NOMEM, "packed weights size overflows");
@@ -496,6 +502,41 @@ int pl_model_set_observer(pl_model *m, pl_layer_observer fn, void *ctx)
     return PL_OK;
 }
 
+const char *pl_prof_stage_name(int stage)
+{
+    static const char *const names[PL_PROF_N] = {
+        "preprocess",   "stem 7x7",     "max pool",     "dense 1x1 b1", "dense 3x3 b1",
+        "dense 1x1 b2", "dense 3x3 b2", "dense 1x1 b3", "dense 3x3 b3", "dense 1x1 b4",
+        "dense 3x3 b4", "transition 1", "transition 2", "transition 3", "norm5 + bands",
+        "fc + heads"};
+    return stage >= 0 && stage < PL_PROF_N ? names[stage] : NULL;
+}
+
+int64_t pl_prof_now(const pl_profile *p)
+{
+    if (!p) return 0;
+    if (!p->thread_cpu) return pl_now_ns();
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
+
+void pl_prof_mark(pl_profile *p, int stage, int64_t *t)
+{
+    if (!p) return;
+    const int64_t now = pl_prof_now(p);
+    p->ns[stage] += now - *t;
+    *t = now;
+}
+
+int pl_model_set_profile(pl_model *m, pl_profile *p)
+{
+    if (!m) return pl_error(PL_E_ARG, "pl_model_set_profile: model is NULL");
+    m->prof = p;
+    if (m->s8) pl_s8_set_profile(m->s8, p);
+    return PL_OK;
+}
+
 const char *pl_model_precision(const pl_model *m)
 {
     return m ? m->precision : NULL;
@@ -559,6 +600,33 @@ static void run_gemm(void *ctx, int begin, int end)
     }
 }
 
+/* A transition's BN + ReLU and 2x2 average pool, channel by channel through one plane of the
+ * thread's scratch (still in L1 when the pool reads it): the same kernels on the same values as
+ * the two passes over the whole block, without writing and reading the block once more. One
+ * item per thread, each a contiguous share of the channels. */
+struct trans_job {
+    const pl_kernels_f32 *k;
+    const float *in, *scale, *shift;
+    float *out, *scratch;
+    size_t scratch_floats;
+    int c, h, w, items;
+};
+
+static void run_trans(void *ctx, int begin, int end)
+{
+    const struct trans_job *j = ctx;
+    const nn_pool_params ap = {1, j->h, j->w, j->h / 2, j->w / 2, 2, 2, 0};
+    const size_t hw = (size_t)j->h * (size_t)j->w, ohw = (size_t)(j->h / 2) * (size_t)(j->w / 2);
+    for (int i = begin; i < end; i++) {
+        float *plane = j->scratch + (size_t)i * j->scratch_floats;
+        const int c0 = (int)((long)j->c * i / j->items), c1 = (int)((long)j->c * (i + 1) / j->items);
+        for (int c = c0; c < c1; c++) {
+            j->k->bn_relu(j->in + (size_t)c * hw, j->scale + c, j->shift + c, (int)hw, plane, 0, 1);
+            j->k->avgpool(&ap, plane, j->out + (size_t)c * ohw, 0, 1);
+        }
+    }
+}
+
 static void bn_relu(pl_model *m, const float *in, const float *scale, const float *shift, int c,
                     int hw, float *out)
 {
@@ -610,10 +678,11 @@ static float softplus(float x)
     return x > 20.0f ? x : log1pf(expf(x)); /* PyTorch's softplus: beta 1, threshold 20 */
 }
 
-static void forward(pl_model *m)
+static void forward(pl_model *m, int64_t clk)
 {
     int h = m->in_h / 2, w = m->in_w / 2;
     conv(m, &m->conv0, m->x_in, m->buf_a);
+    pl_prof_mark(m->prof, PL_PROF_STEM, &clk);
     observe(m, "conv0", m->buf_a, 64, h, w);
 
     nn_pool_params p0 = {64, h, w, h / 2, w / 2, 3, 2, 1};
@@ -622,6 +691,7 @@ static void forward(pl_model *m)
     float *cur = m->buf_b, *next = m->buf_a;
     struct job mp = {.op = OP_MAXPOOL, .k = &m->kern->f32, .params = &p0, .in = m->buf_a, .out = cur};
     pl_pool_for(m->pool, 64, run_job, &mp);
+    pl_prof_mark(m->prof, PL_PROF_MAXPOOL, &clk);
 
     int li = 0;
     char name[64];
@@ -630,7 +700,9 @@ static void forward(pl_model *m)
         for (int l = 0; l < block_layers[b]; l++, li++) {
             const struct dense_layer *L = &m->layers[li];
             conv(m, &L->c1, cur, m->t2);
+            pl_prof_mark(m->prof, PL_PROF_DENSE1 + 2 * b, &clk);
             conv(m, &L->c2, m->t2, cur + (size_t)L->cin * hw);
+            pl_prof_mark(m->prof, PL_PROF_DENSE3 + 2 * b, &clk);
             if (m->observer) {
                 snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
                 observe(m, name, m->t2, BOTTLENECK, h, w);
@@ -640,14 +712,23 @@ static void forward(pl_model *m)
         }
         if (b < N_BLOCKS - 1) {
             const struct transition *T = &m->trans[b];
-            bn_relu(m, cur, T->scale, T->shift, T->cin, hw, m->t1);
-            nn_pool_params ap = {T->cin, h, w, h / 2, w / 2, 2, 2, 0};
-            struct job j = {.op = OP_AVGPOOL, .k = &m->kern->f32, .params = &ap, .in = m->t1,
-                            .out = m->t2};
-            pl_pool_for(m->pool, T->cin, run_job, &j);
+            if (m->kern->f32.packed) {
+                const int threads = pl_pool_threads(m->pool);
+                struct trans_job tj = {&m->kern->f32, cur,  T->scale, T->shift, m->t2,
+                                       m->scratch,    m->scratch_floats, T->cin, h, w,
+                                       threads};
+                pl_pool_for(m->pool, threads, run_trans, &tj);
+            } else {
+                bn_relu(m, cur, T->scale, T->shift, T->cin, hw, m->t1);
+                nn_pool_params ap = {T->cin, h, w, h / 2, w / 2, 2, 2, 0};
+                struct job j = {.op = OP_AVGPOOL, .k = &m->kern->f32, .params = &ap,
+                                .in = m->t1, .out = m->t2};
+                pl_pool_for(m->pool, T->cin, run_job, &j);
+            }
             h /= 2;
             w /= 2;
             conv(m, &T->conv, m->t2, next);
+            pl_prof_mark(m->prof, PL_PROF_TRANS + b, &clk);
             if (m->observer) {
                 snprintf(name, sizeof name, "transition%d.conv", b + 1);
                 observe(m, name, next, T->cin / 2, h, w);
@@ -659,6 +740,7 @@ static void forward(pl_model *m)
     }
     bn_relu(m, cur, m->n5_scale, m->n5_shift, 1024, h * w, m->t1);
     nn_band_pool_f32__ref(m->t1, 1024, h, w, m->bands, m->z);
+    pl_prof_mark(m->prof, PL_PROF_NORM5, &clk);
     observe(m, "z", m->z, m->z_len, 1, 1);
 
     const int N = m->n_lights;
@@ -684,6 +766,7 @@ static void forward(pl_model *m)
     fc(m, m->dist_in, m->z_len + 3 * N, m->d1_w, m->d1_b, m->dist_hidden, 1, m->dist_h);
     fc(m, m->dist_h, m->dist_hidden, m->d2_w, m->d2_b, N, 0, m->out_dist);
     for (int i = 0; i < N; i++) m->out_dist[i] = softplus(m->out_dist[i]);
+    pl_prof_mark(m->prof, PL_PROF_HEADS, &clk);
 }
 
 int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, size_t stride,
@@ -696,6 +779,8 @@ int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, siz
     if (stride < (size_t)width * 3)
         return pl_error(PL_E_ARG, "frame stride %zu smaller than 3 x width (%d)", stride, width);
     const int64_t t0 = pl_now_ns();
+    int64_t pt = pl_prof_now(m->prof);
+    if (m->prof) m->prof->frames++;
     if (m->s8) {
         int64_t t1;
         pl_s8_estimate(m->s8, m->pool, rgb, width, height, stride, out, &t1);
@@ -716,7 +801,8 @@ int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, siz
         for (size_t i = 0; i < plane; i++) x[i] = x[i] * a + b;
     }
     const int64_t t1 = pl_now_ns();
-    forward(m);
+    pl_prof_mark(m->prof, PL_PROF_PRE, &pt);
+    forward(m, pt);
     m->have_latent = 1;
     const int64_t t2 = pl_now_ns();
 

@@ -29,6 +29,7 @@
 #include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
+#include "model/profile.h"
 #include "port/image.h"
 #include "port/util.h"
 #include "quant/requant.h"
@@ -95,6 +96,7 @@ struct pl_s8 {
     void *observer_ctx;
     float *obs_buf, *obs_floor;
     size_t obs_floats;
+    pl_profile *prof; /* pl_s8_set_profile, or NULL */
 };
 
 /* ---- loading ----------------------------------------------------------------------------- */
@@ -603,6 +605,11 @@ int pl_s8_set_observer(pl_s8 *s, pl_layer_observer fn, void *ctx)
     return PL_OK;
 }
 
+void pl_s8_set_profile(pl_s8 *s, pl_profile *p)
+{
+    s->prof = p;
+}
+
 void pl_s8_latent(const pl_s8 *s, const float **z, int *n)
 {
     *z = s->z;
@@ -811,11 +818,12 @@ static void fc_f32(pl_pool *pool, const float *in, int n_in, const float *w, con
     }
 }
 
-static void forward(pl_s8 *s, pl_pool *pool)
+static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
 {
     const int H = s->sh.in_h, W = s->sh.in_w;
     char name[64];
     layer(s, pool, S8_CONV, &s->conv0, s->buf_b, s->buf_a);
+    pl_prof_mark(s->prof, PL_PROF_STEM, &t);
     observe_s8(s, "conv0", s->buf_a, 64, H / 2, W / 2, 64, &s->conv0);
 
     int h = H / 4, w = W / 4;
@@ -839,6 +847,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
             pl_pool_for(pool, 64, run_s8, &j);
         }
     }
+    pl_prof_mark(s->prof, PL_PROF_MAXPOOL, &t);
     int li = 0;
     for (int b = 0; b < N_BLOCKS; b++) {
         const int ctot = block_c0[b] + GROWTH * block_layers[b];
@@ -852,7 +861,9 @@ static void forward(pl_s8 *s, pl_pool *pool)
                                    (size_t)(h + 2) * (size_t)aw * BOTTLENECK);
                 layer_packed(s, pool, &D->c1, cur, D->c1.lo, D->c1.hi,
                              (int8_t *)s->a2 + ((size_t)aw + 1) * BOTTLENECK);
+                pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
                 run_packed(pool, &s->k->s8, &D->c2, s->a2, cur + D->cin);
+                pl_prof_mark(s->prof, PL_PROF_DENSE3 + 2 * b, &t);
                 if (s->observer) /* the observer reads the bottleneck as s8 in T */
                     for (int y = 0; y < h; y++)
                         for (int i = 0; i < w * BOTTLENECK; i++)
@@ -860,7 +871,9 @@ static void forward(pl_s8 *s, pl_pool *pool)
                                 s->a2[((size_t)(y + 1) * aw + 1) * BOTTLENECK + (size_t)i] ^ 0x80);
             } else {
                 layer(s, pool, S8_CONV1X1_CLAMP, &D->c1, cur, s->t);
+                pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
                 layer(s, pool, S8_CONV, &D->c2, s->t, cur + D->cin);
+                pl_prof_mark(s->prof, PL_PROF_DENSE3 + 2 * b, &t);
             }
             if (s->observer) {
                 snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
@@ -890,6 +903,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
                                 .a_out = s->a1,
                                 .out_stride = T->conv.pc.cs};
             pl_pool_for(pool, (h / 2) * (w / 2), run_s8, &pj); /* and the 1x1 conv */
+            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
             h /= 2;
             w /= 2;
             if (s->observer) {
@@ -922,6 +936,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
             h /= 2;
             w /= 2;
             layer(s, pool, S8_CONV1X1, &T->conv, s->t, next);
+            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
             if (s->observer) {
                 snprintf(name, sizeof name, "transition%d.conv", b + 1);
                 observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
@@ -960,6 +975,7 @@ static void forward(pl_s8 *s, pl_pool *pool)
             s->zq[c * bands + k] = (int8_t)avg;
             s->z[c * bands + k] = s->n5_deq[c] * (float)avg + s->n5_deq[FEATURES + c];
         }
+    pl_prof_mark(s->prof, PL_PROF_NORM5, &t);
     if (s->observer) s->observer(s->observer_ctx, "z", s->z, s->z_len, 1, 1, NULL);
 
     const int N = s->sh.n_lights, fcn = s->sh.fc_n;
@@ -996,37 +1012,51 @@ static void forward(pl_s8 *s, pl_pool *pool)
     fc_f32(pool, s->dist_h, s->sh.dist_hidden, s->d2_w, s->d2_b, N, 0, s->out_dist);
     for (int i = 0; i < N; i++)
         s->out_dist[i] = softplus(s->out_dist[i]);
+    pl_prof_mark(s->prof, PL_PROF_HEADS, &t);
+}
+
+/* Rows [y0, y1) of the padded stem input: the resized frame (floats in T) as s8 (zero point
+ * -128), padded by STEM_PAD with the mean pixel, so conv0 runs unpadded and the border is the
+ * normalised network's zero. */
+static void pad_input(void *ctx, int y0, int y1)
+{
+    const pl_s8 *s = ctx;
+    const int H = s->sh.in_h, W = s->sh.in_w, PW = W + 2 * STEM_PAD;
+    const size_t plane = (size_t)H * W;
+    const int8_t pad[3] = {(int8_t)(s->pad_px[0] - 128), (int8_t)(s->pad_px[1] - 128),
+                           (int8_t)(s->pad_px[2] - 128)};
+    for (int y = y0; y < y1; y++) {
+        int8_t *row = s->buf_b + (size_t)y * PW * 3;
+        const int inside = y >= STEM_PAD && y < STEM_PAD + H;
+        for (int xx = 0; xx < PW; xx++)
+            if (!inside || xx < STEM_PAD || xx >= STEM_PAD + W) memcpy(row + 3 * xx, pad, 3);
+        if (!inside) continue;
+        for (int c = 0; c < 3; c++) {
+            const float *f = s->fin + c * plane + (size_t)(y - STEM_PAD) * W;
+            int8_t *px = row + 3 * STEM_PAD + c;
+            for (int i = 0; i < W; i++) {
+                /* lrintf of the value clamped to [0, 255] (the same as clamping lrintf's
+                 * result): adding and subtracting 1.5 * 2^23 rounds to nearest even */
+                float v = f[i] > 0.0f ? (f[i] < 255.0f ? f[i] : 255.0f) : 0.0f;
+                v = (v + 12582912.0f) - 12582912.0f;
+                px[3 * i] = (int8_t)((int)v - 128);
+            }
+        }
+    }
 }
 
 void pl_s8_estimate(pl_s8 *s, pl_pool *pool, const uint8_t *rgb, int width, int height,
                     size_t stride, pl_lighting *out, int64_t *t_pre_end)
 {
-    const int H = s->sh.in_h, W = s->sh.in_w, PW = W + 2 * STEM_PAD, PH = H + 2 * STEM_PAD;
+    const int H = s->sh.in_h, W = s->sh.in_w, PH = H + 2 * STEM_PAD;
+    int64_t pt = pl_prof_now(s->prof);
     int x0, y0, cw, ch;
     pl_crop_to_aspect(width, height, W, H, &x0, &y0, &cw, &ch);
     pl_resize_area_rgb8_to_chw(rgb, stride, x0, y0, cw, ch, s->fin, W, H);
-    /* u8 pixels as s8 (zero point -128), padded by STEM_PAD with the mean pixel: conv0 then runs
-     * unpadded and the border is the normalised network's zero */
-    int8_t *x = s->buf_b;
-    const size_t plane = (size_t)H * W;
-    for (int y = 0; y < PH; y++)
-        for (int xx = 0; xx < PW; xx++) {
-            int8_t *px = x + ((size_t)y * PW + xx) * 3;
-            const int inside =
-                y >= STEM_PAD && y < STEM_PAD + H && xx >= STEM_PAD && xx < STEM_PAD + W;
-            for (int c = 0; c < 3; c++) {
-                int v = s->pad_px[c];
-                if (inside) {
-                    const float f =
-                        s->fin[c * plane + (size_t)(y - STEM_PAD) * W + (xx - STEM_PAD)];
-                    v = (int)lrintf(f);
-                    v = v < 0 ? 0 : v > 255 ? 255 : v;
-                }
-                px[c] = (int8_t)(v - 128);
-            }
-        }
+    pl_pool_for(pool, PH, pad_input, s);
     *t_pre_end = pl_now_ns();
-    forward(s, pool);
+    pl_prof_mark(s->prof, PL_PROF_PRE, &pt);
+    forward(s, pool, pt);
 
     memset(out, 0, sizeof *out);
     out->n_lights = s->sh.n_lights;

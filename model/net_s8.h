@@ -14,6 +14,7 @@
 #include "model/arch.h"
 #include "model/observer.h"
 #include "model/plm.h"
+#include "model/profile.h"
 #include "parlight.h"
 #include "port/threads.h"
 
@@ -25,6 +26,8 @@ void pl_s8_free(pl_s8 *s);
 size_t pl_s8_arena_bytes(const pl_s8 *s);
 int64_t pl_s8_params(const pl_s8 *s);
 int pl_s8_set_observer(pl_s8 *s, pl_layer_observer fn, void *ctx);
+/* Stage times of later estimates add to *p (model/profile.h); NULL stops. */
+void pl_s8_set_profile(pl_s8 *s, pl_profile *p);
 
 /* Runs one frame (arguments already validated by pl_estimate_rgb8). */
 void pl_s8_estimate(pl_s8 *s, pl_pool *pool, const uint8_t *rgb, int width, int height,

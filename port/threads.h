@@ -3,8 +3,9 @@
  * pl_pool_for(pool, n, fn, ctx) splits [0, n) into one contiguous chunk per thread (the caller
  * runs the first) and returns when all chunks are done. Chunk boundaries depend only on n and the
  * thread count, and kernels compute each item independently, so results never depend on the
- * number of threads. Workers sleep on a condition variable between loops: nothing spins and
- * nothing is allocated per call. */
+ * number of threads. Between loops a waiting thread (worker or caller) spins for up to 100 us,
+ * then sleeps on a condition variable: a frame's ~130 back-to-back loops never pay a wake-up,
+ * and an idle pool burns no CPU. Nothing is allocated per call. */
 #ifndef PL_PORT_THREADS_H
 #define PL_PORT_THREADS_H
 

@@ -87,6 +87,44 @@ print("json ok")
 PY
 echo "ok  --json"
 
+# --- --layers / --layers-cpu: every stage of the network, in order, adding up to the frame ---
+"$P" bench --model "$Q" --runs 3 --warmup 1 --layers --json >"$T/lay8.json" || fail "--layers int8"
+"$P" bench --model "$M" --runs 2 --warmup 0 --threads 2 --layers --json >"$T/lay32.json" ||
+    fail "--layers fp32"
+"$P" bench --model "$Q" --runs 3 --warmup 0 --layers-cpu --json >"$T/laycpu.json" ||
+    fail "--layers-cpu"
+"$P" bench --model "$Q" --runs 2 --warmup 0 --layers >"$T/laytext" || fail "--layers text"
+grep -q "^stage (wall) *median ms" "$T/laytext" && grep -q "^  dense 3x3 b1 " "$T/laytext" ||
+    fail "--layers text: $(cat "$T/laytext")"
+/usr/bin/python3 - "$T" <<'PY' || fail "--layers json check"
+import json, os, sys
+t = sys.argv[1]
+names = ["preprocess", "stem 7x7", "max pool"] + [f"dense {k} b{b}" for b in range(1, 5)
+         for k in ("1x1", "3x3")] + ["transition 1", "transition 2", "transition 3",
+         "norm5 + bands", "fc + heads"]
+for f, clock in (("lay8.json", "wall"), ("lay32.json", "wall"), ("laycpu.json", "thread_cpu")):
+    o = json.load(open(os.path.join(t, f)))
+    assert o["stage_clock"] == clock, (f, o.get("stage_clock"))
+    st = o["stages"]
+    assert [s["stage"] for s in st] == names, (f, [s["stage"] for s in st])
+    for s in st:
+        assert 0 <= s["min_ms"] <= s["median_ms"], (f, s)
+    for s in st[1:-2]:   # every convolution stage does work
+        assert s["median_ms"] > 0, (f, s)
+    total = sum(s["min_ms"] for s in st)
+    # the stages cover the whole frame: the sum of their minima is at most the slowest frame
+    # and at least a third of the fastest (the rest is clock reads and the result copy)
+    assert total <= o["max_ms"] + 0.5, (f, total, o["max_ms"])
+    assert total >= o["min_ms"] / 3, (f, total, o["min_ms"])
+    if clock == "wall":
+        # the 3x3s of block 1 and the 1x1s of blocks 1-3 are most of the work
+        big = sum(s["median_ms"] for s in st if s["stage"] in ("dense 3x3 b1", "dense 1x1 b1", "dense 1x1 b2"))
+        assert big > 0.2 * sum(s["median_ms"] for s in st), (f, big)
+print("layers ok")
+PY
+"$P" bench --model "$Q" --runs 1 --json | grep -q '"stages"' && fail "stages without --layers"
+echo "ok  --layers"
+
 # --- PARLIGHT_ISA=ref is reported as such ---
 PARLIGHT_ISA=ref "$P" bench --model "$Q" --runs 1 --warmup 0 --json | grep -q '"isa":"ref"' ||
     fail "PARLIGHT_ISA=ref not reported"

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # The int8 network gives byte-identical JSON (timing and timestamp fields removed) on every
 # instruction-set path this CPU runs — PARLIGHT_ISA=ref (the reference kernels), avx2, avxvnni,
-# avx512vnni — and with 1 or 2 threads: the SIMD kernels are bit-exact and the work split does
+# avx512vnni on x86, neon, dotprod, i8mm on Arm (under qemu: the -cpu model decides) — and with 1
+# or 2 threads: the SIMD kernels are bit-exact and the work split does
 # not change a bit. (The reference path runs once, with 2 threads, as the baseline: it is 60-100x
 # slower, and its independence of the thread count is tests/test_quantize.sh's.) Models: int8 quantisations of build/models/seeded-n3.plm (192x256) and, when
 # it exists, build/models/seeded-n3-96x128.plm (other block sizes, so other tile remainders),
-# calibrated on tests/data/frames; the frames of tests/data/frames as input. A path the CPU
+# calibrated on tests/data/frames; the frames of tests/data/frames as input (under an emulator,
+# PL_RUNNER set: the 96x128 model and one frame, see below). A path the CPU
 # lacks is skipped with a message (parlight estimate says why); at least ref and one SIMD path
 # must run. Also `parlight info` names the path and the implementation of every slot, and
 # the executor's per-layer observer sees the same activations on every path.
@@ -18,26 +20,48 @@ fail() { echo "FAIL: $*"; exit 1; }
 
 strip() { sed -E 's/"timing_ms":\{[^}]*\},?//; s/"t_ns":[0-9]+,?//' "$1"; }
 
-for M in build/models/seeded-n3.plm build/models/seeded-n3-96x128.plm; do
+MODELS="build/models/seeded-n3.plm build/models/seeded-n3-96x128.plm"
+FRAMES=tests/data/frames
+NFRAMES=5
+OBS_MODEL=seeded-n3
+THREADS="1 2" # SIMD paths
+REF_TH=2
+if [ -n "${PL_RUNNER:-}" ]; then
+    # Under an emulator (make test BOARD=rpi5: qemu-aarch64) the reference path takes minutes per
+    # 192x256 frame: the 96x128 model only (the same layers and tile remainders of other sizes),
+    # one frame to estimate and to calibrate on. One thread: qemu-aarch64 7.2 hangs in
+    # pthread_create on this machine's kernel (docs/PORTING.md).
+    MODELS=build/models/seeded-n3-96x128.plm
+    FRAMES=tests/data/frames/lab-lamps.jpg
+    NFRAMES=1
+    OBS_MODEL=seeded-n3-96x128
+    THREADS=1
+    REF_TH=1
+    [ -f "$MODELS" ] || fail "no $MODELS (make test exports it)"
+    echo "under $PL_RUNNER: $MODELS, $FRAMES, one thread"
+fi
+
+for M in $MODELS; do
     [ -f "$M" ] || { echo "no $M, skipped"; continue; }
     Q="$T/$(basename "$M" .plm)-int8.plm"
-    "$P" quantize --model "$M" --calib tests/data/frames --method minmax --out "$Q" \
+    "$P" quantize --model "$M" --calib "$FRAMES" --method minmax --out "$Q" \
         2>"$T/qerr" || fail "quantize $M: $(cat "$T/qerr")"
     ref=""
     simd=0
-    for isa in ref avx2 avxvnni avx512vnni; do
-        ths="1 2"
-        [ "$isa" = ref ] && ths=2
+    for isa in ref avx2 avxvnni avx512vnni neon dotprod i8mm; do
+        ths=$THREADS
+        [ "$isa" = ref ] && ths=$REF_TH
         for th in $ths; do
             out="$T/$(basename "$Q" .plm)-$isa-$th.jsonl"
-            if ! PARLIGHT_ISA=$isa "$P" estimate --model "$Q" --input tests/data/frames \
+            if ! PARLIGHT_ISA=$isa "$P" estimate --model "$Q" --input "$FRAMES" \
                 --threads "$th" >"$out" 2>"$T/err"; then
                 grep -q "cannot run it" "$T/err" && [ "$isa" != ref ] ||
                     fail "PARLIGHT_ISA=$isa --threads $th: $(cat "$T/err")"
                 echo "skip $isa: $(cat "$T/err")"
                 continue 2
             fi
-            [ "$(wc -l <"$out")" -eq 5 ] || fail "$isa: $(wc -l <"$out") lines, expected 5"
+            [ "$(wc -l <"$out")" -eq "$NFRAMES" ] ||
+                fail "$isa: $(wc -l <"$out") lines, expected $NFRAMES"
             if [ -z "$ref" ]; then
                 ref="$out"
             else
@@ -58,12 +82,12 @@ PARLIGHT_ISA=ref "$P" info --model "$Q" | grep -q "nn_conv1x1_clamp_s8__ref" ||
 
 # the per-layer observer (calibration, qcheck's SQNR per layer) sees the same int8 activations on
 # every path and thread count (tests/observe_dump.c hashes each observed layer)
-Q="$T/seeded-n3-int8.plm"
-PARLIGHT_ISA=ref "$BUILD/tests/observe_dump" "$Q" 2 >"$T/obs-ref" 2>"$T/err" ||
+Q="$T/$OBS_MODEL-int8.plm"
+PARLIGHT_ISA=ref "$BUILD/tests/observe_dump" "$Q" $REF_TH >"$T/obs-ref" 2>"$T/err" ||
     fail "observe_dump under ref: $(cat "$T/err")"
 [ "$(wc -l <"$T/obs-ref")" -eq 122 ] || fail "observe_dump: $(wc -l <"$T/obs-ref") layers, expected 122"
-for isa in avx2 avxvnni avx512vnni; do
-    for th in 1 2; do
+for isa in avx2 avxvnni avx512vnni neon dotprod i8mm; do
+    for th in $THREADS; do
         PARLIGHT_ISA=$isa "$BUILD/tests/observe_dump" "$Q" $th >"$T/obs" 2>"$T/err" ||
             { echo "observer: skip $isa: $(cat "$T/err")"; continue 2; }
         cmp -s "$T/obs-ref" "$T/obs" || fail "observed layers under $isa ($th threads) differ from ref"

@@ -1,6 +1,7 @@
 /* The fp32 SIMD kernels (kernels/kernels_f32.h) against the reference kernels
- * (kernels/ref/nn_ref.h), on every path this CPU runs (pl_kernels_for; paths it lacks are
- * reported and skipped):
+ * (kernels/ref/nn_ref.h), on every path this CPU runs (x86: avx2, avxvnni, avx512vnni, amx;
+ * Arm: neon, dotprod, i8mm, which share the NEON fp32 kernels; pl_kernels_for; paths it lacks
+ * are reported and skipped):
  *  - the packed convolution against nn_conv2d_f32__ref (after nn_bn_relu_f32__ref when the
  *    convolution carries the 1x1 pre-activation): random shapes with k in 1..7, strides 1..3,
  *    every padding, tile remainders (pixels) and panel remainders (odd channel counts), with and
@@ -326,7 +327,8 @@ static double network_shapes(const pl_kernels_f32 *t, const char *isa)
 
 int main(void)
 {
-    const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI, PL_ISA_AMX};
+    const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI, PL_ISA_AMX,
+                            PL_ISA_NEON, PL_ISA_DOTPROD, PL_ISA_I8MM};
     int ran = 0;
     for (size_t pi = 0; pi < sizeof paths / sizeof paths[0]; pi++) {
         const char *isa = pl_isa_name(paths[pi]);
@@ -337,6 +339,22 @@ int main(void)
         }
         if (!k.f32.packed) {
             printf("path %s: no packed fp32 kernels in this build, skipped\n", isa);
+            continue;
+        }
+        /* a path whose fp32 kernels are all those of a path tested above (the Arm paths share
+         * NEON's, avxvnni has avx2's) is not tested twice */
+        int same = -1;
+        for (size_t qi = 0; qi < pi && same < 0; qi++) {
+            pl_kernels q;
+            if (pl_kernels_for(paths[qi], &q) == 0 && q.f32.packed && q.f32.conv == k.f32.conv &&
+                q.f32.fc == k.f32.fc && q.f32.bn_relu == k.f32.bn_relu &&
+                q.f32.maxpool == k.f32.maxpool && q.f32.avgpool == k.f32.avgpool)
+                same = (int)qi;
+        }
+        if (same >= 0) {
+            printf("path %s: the fp32 kernels of %s (%s), tested above\n", isa,
+                   pl_isa_name(paths[same]), k.f32.conv_name);
+            ran++;
             continue;
         }
         const int before = failures;

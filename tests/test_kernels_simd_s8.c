@@ -1,5 +1,6 @@
 /* The packed int8 SIMD path (kernels/kernels_s8.h) against the reference kernels, tolerance 0,
- * on every x86 path this CPU runs (pl_kernels_for; paths it lacks are reported and skipped):
+ * on every SIMD path this CPU runs (x86: avx2, avxvnni, avx512vnni; Arm: neon, dotprod, i8mm;
+ * pl_kernels_for; paths it lacks are reported and skipped):
  * k x k convolutions with strides, dilation and padding (nn_conv2d_s8__ref), 1x1 convolutions
  * with and without the per-input-channel clamp and with strides (nn_conv1x1_clamp_s8__ref,
  * nn_conv1x1_s8__ref), fully connected layers (nn_fc_s8__ref, per channel and per tensor), on
@@ -509,7 +510,8 @@ static void test_network_shapes(const pl_kernels_s8 *K, const char *isa)
 
 int main(void)
 {
-    static const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI};
+    static const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI,
+                                   PL_ISA_NEON, PL_ISA_DOTPROD,   PL_ISA_I8MM};
     int ran = 0;
     for (size_t i = 0; i < sizeof paths / sizeof paths[0]; i++) {
         const char *isa = pl_isa_name(paths[i]);

@@ -13,11 +13,19 @@ void NN_A_CAT(nn_a_pack_s8, NN_A_SUFFIX)(const nn_dims *in_dims, const int8_t *i
                                          uint8_t *a, int cs, int pix_begin, int pix_end)
 {
     const int in_c = in_dims->c, ow = out_dims->w, oh = out_dims->h;
+    /* the output position steps with p (no division per pixel) */
+    int ox = pix_begin % ow, oy = pix_begin / ow % oh, b = pix_begin / ow / oh;
     for (int p = pix_begin; p < pix_end; p++) {
-        const int ox = p % ow, row = p / ow, oy = row % oh, b = row / oh;
         const int8_t *restrict x =
             in + nn_pixel_offset(in_dims, b, oy * stride_h, ox * stride_w, in_c_stride);
         uint8_t *restrict d = a + (size_t)p * (size_t)cs;
+        if (++ox == ow) {
+            ox = 0;
+            if (++oy == oh) {
+                oy = 0;
+                b++;
+            }
+        }
         if (lo) {
             for (int ch = 0; ch < in_c; ch++) {
                 int8_t v = x[ch];

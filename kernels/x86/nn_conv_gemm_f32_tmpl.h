@@ -106,7 +106,7 @@ static void pack_shift(const nn_conv_params *p, const float *in, int n0, int k0,
     }
 }
 
-/* Any stride and padding (the 7x7/2 stem): an explicit im2col of the tile by masked gathers,
+/* Any other stride and padding: an explicit im2col of the tile by masked gathers,
  * from the first input row/column of each of its pixels and the index of that corner
  * (generic_origins, once per tile; pixels past the tile's end get a row that is never valid). */
 static void generic_origins(const nn_conv_params *p, int n0, int cols, int32_t *tab)
@@ -132,6 +132,42 @@ static void pack_generic(const nn_conv_params *p, const float *in, int k0, int k
     }
 }
 
+/* Stride 2 (the 7x7/2 stem): B row (ic, ky, kx) is, for each output row the tile crosses, every
+ * other pixel of one input row, zero where the tap falls in the padding: plain loads the compiler
+ * vectorises, instead of generic_origins' gathers. The values are the gathers' exactly. */
+static void pack_stride2(const nn_conv_params *p, const float *in, int n0, int cols, int k0,
+                         int k1, float *b)
+{
+    const int taps = p->k_h * p->k_w;
+    const size_t plane = (size_t)p->in_h * p->in_w;
+    for (int k = k0; k < k1; k++) {
+        const int ic = k / taps, ky = k % taps / p->k_w, kx = k % p->k_w;
+        float *d = b + (size_t)(k - k0) * PL_F32_NR;
+        const float *x = in + (size_t)ic * plane;
+        int j = 0, oy = n0 / p->out_w, ox = n0 % p->out_w;
+        while (j < cols) {
+            const int seg = cols - j < p->out_w - ox ? cols - j : p->out_w - ox;
+            const int iy = oy * 2 - p->pad + ky, ix0 = ox * 2 - p->pad + kx;
+            float *restrict dd = d + j;
+            int lo = 0, hi = 0; /* taps [lo, hi) of the segment read inside the row */
+            if (iy >= 0 && iy < p->in_h && ix0 <= p->in_w - 1) {
+                lo = ix0 < 0 ? (1 - ix0) / 2 : 0;
+                hi = (p->in_w - 1 - ix0) / 2 + 1;
+                if (hi > seg) hi = seg;
+                if (lo > hi) lo = hi;
+            }
+            const float *restrict xr = x + (size_t)(iy < 0 ? 0 : iy) * (size_t)p->in_w;
+            for (int i = 0; i < lo; i++) dd[i] = 0.0f;
+            for (int i = lo; i < hi; i++) dd[i] = xr[ix0 + 2 * i];
+            for (int i = hi; i < seg; i++) dd[i] = 0.0f;
+            j += seg;
+            ox = 0;
+            oy++;
+        }
+        for (; j < PL_F32_NR; j++) d[j] = 0.0f;
+    }
+}
+
 void CONV_GEMM_FN(const pl_f32_conv *c, const float *in, float *out, float *scratch,
                   int tile_begin, int tile_end, int panel_begin, int panel_end)
 {
@@ -149,7 +185,7 @@ void CONV_GEMM_FN(const pl_f32_conv *c, const float *in, float *out, float *scra
         const int cols = npix - n0 < PL_F32_NR ? npix - n0 : PL_F32_NR;
         if (!is_1x1 && is_shift)
             shift_masks(p, n0, cols, tab);
-        else if (!is_1x1)
+        else if (!is_1x1 && p->stride != 2)
             generic_origins(p, n0, cols, tab);
         for (int k0 = 0; k0 < K; k0 += KC) {
             const int kc = K - k0 < KC ? K - k0 : KC;
@@ -158,6 +194,8 @@ void CONV_GEMM_FN(const pl_f32_conv *c, const float *in, float *out, float *scra
                 pack_1x1(c, in, plane, n0, cols, k0, k0 + kc, b);
             else if (is_shift)
                 pack_shift(p, in, n0, k0, k0 + kc, b, tab);
+            else if (p->stride == 2)
+                pack_stride2(p, in, n0, cols, k0, k0 + kc, b);
             else
                 pack_generic(p, in, k0, k0 + kc, b, tab);
             for (int pn = panel_begin; pn < panel_end; pn++) {

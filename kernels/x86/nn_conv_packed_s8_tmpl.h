@@ -1,6 +1,6 @@
 /* The packed int8 convolution (kernels/kernels_s8.h), written once for three x86 paths. The
  * including file defines one of
- *   NN_T_AVX512VNNI  zmm, vpdpbusd; a tile is 12 pixels x 2 blocks of 16 channels
+ *   NN_T_AVX512VNNI  zmm, vpdpbusd; a tile is up to 14 pixels x 2 blocks of 16 channels
  *   NN_T_AVXVNNI     ymm, VEX vpdpbusd; 6 pixels x 1 block (2 ymm)
  *   NN_T_AVX2        ymm, u8 widened to s16 and vpmaddwd; 4 pixels x 1 block (2 ymm)
  * and NN_T_NAME, the function's name.
@@ -16,7 +16,10 @@
  *   res  = (high >> rsh) + (remainder > (mask >> 1) + (high < 0))     rounding half away
  * clamps res to [-1024, 1024] (which changes no final value, as |output_offset| <= 128 and the
  * activation range is inside [-128, 127]), adds the output offset, clamps to the activation
- * range, narrows to bytes and stores the channels asked for. */
+ * range, narrows to bytes and stores the channels asked for. AVX-512 does the same in fewer
+ * operations: it clamps res to [act_min - offset, act_max - offset] (inside [-256, 255], so the
+ * [-1024, 1024] clamp has nothing to do) before adding the offset, and an out_xor of 0x80 is
+ * the offset + 128 (x ^ 0x80 = x + 128 mod 256 on a byte), so vpmovdb's truncation writes it. */
 #include <immintrin.h>
 #include <string.h>
 
@@ -24,7 +27,7 @@
 
 #if defined(NN_T_AVX512VNNI)
 typedef __m512i vec;
-#define MR 12
+#define MR 14 /* 28 accumulators + 2 weight vectors + the broadcast: 31 of the 32 zmm */
 #define NBLK 2 /* blocks per tile */
 #define GROUP_BYTES 64
 #elif defined(NN_T_AVXVNNI) || defined(NN_T_AVX2)
@@ -75,10 +78,8 @@ INLINE __m512i requant(const int left, __m512i acc, __m512i mult, __m512i lsh, _
     const __m512i thr = _mm512_sub_epi32(half, _mm512_srai_epi32(high, 31));
     __m512i res = _mm512_srav_epi32(high, rsh);
     res = _mm512_mask_add_epi32(res, _mm512_cmpgt_epi32_mask(rem, thr), res, one);
-    res = _mm512_max_epi32(_mm512_min_epi32(res, _mm512_set1_epi32(1024)),
-                           _mm512_set1_epi32(-1024));
-    res = _mm512_add_epi32(res, off);
-    return _mm512_max_epi32(_mm512_min_epi32(res, hi), lo);
+    /* lo, hi: the activation range minus the offset; off: the offset (+ 128 for out_xor 0x80) */
+    return _mm512_add_epi32(_mm512_max_epi32(_mm512_min_epi32(res, hi), lo), off);
 }
 #else
 INLINE __m256i requant(const int left, __m256i acc, __m256i mult, __m256i lsh, __m256i rsh,
@@ -119,7 +120,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
     vec acc[MR][2];
 #if defined(NN_T_AVX512VNNI)
     const __m512i b0 = _mm512_loadu_si512(qv), b1 = _mm512_loadu_si512(qv + (nv > 1 ? 16 : 0));
-#pragma GCC unroll 12
+#pragma GCC unroll 14
     for (int m = 0; m < mr; m++) {
         acc[m][0] = b0;
         acc[m][1] = b1;
@@ -127,7 +128,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
 #else
     const __m256i b0 = _mm256_loadu_si256((const __m256i *)(const void *)qv),
                   b1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 8));
-#pragma GCC unroll 12
+#pragma GCC unroll 14
     for (int m = 0; m < mr; m++) {
         acc[m][0] = b0;
         acc[m][1] = b1;
@@ -144,7 +145,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
 #if defined(NN_T_AVX512VNNI)
                 const __m512i w0 = _mm512_loadu_si512(wg);
                 const __m512i w1 = nv > 1 ? _mm512_loadu_si512(wg + wblock_bytes) : w0;
-#pragma GCC unroll 12
+#pragma GCC unroll 14
                 for (int m = 0; m < mr; m++) {
                     const __m512i av = _mm512_set1_epi32(load32(ap + (size_t)m * astep));
                     acc[m][0] = _mm512_dpbusd_epi32(acc[m][0], av, w0);
@@ -154,7 +155,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
                 (void)wblock_bytes;
                 const __m256i w0 = _mm256_loadu_si256((const __m256i *)(const void *)wg);
                 const __m256i w1 = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 32));
-#pragma GCC unroll 12
+#pragma GCC unroll 14
                 for (int m = 0; m < mr; m++) {
                     const __m256i av = _mm256_set1_epi32(load32(ap + (size_t)m * astep));
                     acc[m][0] = _mm256_dpbusd_avx_epi32(acc[m][0], av, w0);
@@ -166,7 +167,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
                 const __m256i w01b = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 32));
                 const __m256i w23a = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 64));
                 const __m256i w23b = _mm256_loadu_si256((const __m256i *)(const void *)(wg + 96));
-#pragma GCC unroll 12
+#pragma GCC unroll 14
                 for (int m = 0; m < mr; m++) {
                     const __m256i u = _mm256_unpacklo_epi8(
                         _mm256_set1_epi32(load32(ap + (size_t)m * astep)), _mm256_setzero_si256());
@@ -185,9 +186,11 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
 
     /* requantise and store */
 #if defined(NN_T_AVX512VNNI)
-    const __m512i off = _mm512_set1_epi32(c->output_offset), lo = _mm512_set1_epi32(c->act_min),
-                  hi = _mm512_set1_epi32(c->act_max);
-    const __m128i xr = _mm_set1_epi8((char)c->out_xor);
+    const __m512i off = _mm512_set1_epi32(c->output_offset + (c->out_xor & 0x80 ? 128 : 0)),
+                  lo = _mm512_set1_epi32(c->act_min - c->output_offset),
+                  hi = _mm512_set1_epi32(c->act_max - c->output_offset);
+    const __m128i xr = _mm_set1_epi8((char)(c->out_xor & 0x7f));
+    const int any_xor = (c->out_xor & 0x7f) != 0;
     for (int v = 0; v < nv; v++) {
         const int32_t *q = qv + 16 * v;
         const __m512i mult = _mm512_loadu_si512(q + nbp), lsh = _mm512_loadu_si512(q + 2 * nbp),
@@ -198,17 +201,19 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
         if (ve <= vb) continue;
         const __mmask16 km = (__mmask16)(((1u << ve) - 1u) & ~((1u << vb) - 1u));
         if (c->any_left_shift) {
-#pragma GCC unroll 12
+#pragma GCC unroll 14
             for (int m = 0; m < mr; m++) {
                 const __m512i r = requant(1, acc[m][v], mult, lsh, rsh, mask, half, off, lo, hi);
-                const __m128i bytes = _mm_xor_si128(_mm512_cvtepi32_epi8(r), xr);
+                __m128i bytes = _mm512_cvtepi32_epi8(r);
+                if (any_xor) bytes = _mm_xor_si128(bytes, xr);
                 _mm_mask_storeu_epi8(out[m] + c0 + 16 * v, km, bytes);
             }
         } else {
-#pragma GCC unroll 12
+#pragma GCC unroll 14
             for (int m = 0; m < mr; m++) {
                 const __m512i r = requant(0, acc[m][v], mult, lsh, rsh, mask, half, off, lo, hi);
-                const __m128i bytes = _mm_xor_si128(_mm512_cvtepi32_epi8(r), xr);
+                __m128i bytes = _mm512_cvtepi32_epi8(r);
+                if (any_xor) bytes = _mm_xor_si128(bytes, xr);
                 _mm_mask_storeu_epi8(out[m] + c0 + 16 * v, km, bytes);
             }
         }
@@ -229,7 +234,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
                   h1 = _mm256_loadu_si256((const __m256i *)(const void *)(qv + 5 * nbp + 8));
     const int left = c->any_left_shift;
     (void)nv;
-#pragma GCC unroll 12
+#pragma GCC unroll 14
     for (int m = 0; m < mr; m++) {
         const __m256i q0 = left ? requant(1, acc[m][0], m0, l0, r0, k0, h0, off, lo, hi)
                                 : requant(0, acc[m][0], m0, l0, r0, k0, h0, off, lo, hi);
@@ -266,7 +271,7 @@ static void tile_any(int mr, int nv, const pl_s8_conv *c, const uint8_t *a0, siz
 #endif
 #if MR > 6
             NN_T_CASE(7, 2) NN_T_CASE(8, 2) NN_T_CASE(9, 2) NN_T_CASE(10, 2) NN_T_CASE(11, 2)
-            NN_T_CASE(12, 2)
+            NN_T_CASE(12, 2) NN_T_CASE(13, 2) NN_T_CASE(14, 2)
 #endif
         default: break;
         }
@@ -275,7 +280,7 @@ static void tile_any(int mr, int nv, const pl_s8_conv *c, const uint8_t *a0, siz
         switch (mr) {
             NN_T_CASE(1, 1) NN_T_CASE(2, 1) NN_T_CASE(3, 1) NN_T_CASE(4, 1) NN_T_CASE(5, 1)
             NN_T_CASE(6, 1) NN_T_CASE(7, 1) NN_T_CASE(8, 1) NN_T_CASE(9, 1) NN_T_CASE(10, 1)
-            NN_T_CASE(11, 1) NN_T_CASE(12, 1)
+            NN_T_CASE(11, 1) NN_T_CASE(12, 1) NN_T_CASE(13, 1) NN_T_CASE(14, 1)
         default: break;
         }
 #endif
@@ -297,16 +302,19 @@ void NN_T_NAME(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_str
     for (int p = pix_begin; p < pix_end;) {
         const int ox = p % c->out_w, row = p / c->out_w, oy = row % c->out_h, b = row / c->out_h;
         int mr = pix_end - p;
-        if (!dense && mr > c->out_w - ox) mr = c->out_w - ox;
+        if (!dense && mr > c->out_w - ox) mr = c->out_w - ox; /* a k x k tile stays in its row */
         if (mr > MR) mr = MR;
         const uint8_t *a0 = a + (((size_t)b * (size_t)c->a_h + (size_t)oy * (size_t)c->stride_h) *
                                      (size_t)c->a_w +
                                  (size_t)ox * (size_t)c->stride_w) *
                                     (size_t)c->cs;
         int8_t *o[MR]; /* the tile's output pixels (rows of the output may be apart: out_pitch) */
-        for (int m = 0; m < mr; m++) {
-            const int q = p + m, qx = q % c->out_w, qrow = q / c->out_w;
+        for (int m = 0, qx = ox, qrow = row; m < mr; m++) { /* pixel p + m, without dividing */
             o[m] = out + ((size_t)qrow * (size_t)pitch + (size_t)qx) * ostride;
+            if (++qx == c->out_w) {
+                qx = 0;
+                qrow++;
+            }
         }
         for (int blk = blk_begin; blk < blk_end; blk += NBLK) {
             const int nblk = blk + NBLK <= blk_end ? NBLK : blk_end - blk;

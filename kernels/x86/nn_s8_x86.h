@@ -48,7 +48,7 @@ void nn_avgpool2d_s8__avx512vnni(const nn_pool_s8_params *p, const nn_dims *in_d
 void nn_clamp_s8__avx512vnni(const nn_dims *d, int8_t *data, int c_stride, const int8_t *lo,
                              const int8_t *hi, int pix_begin, int pix_end);
 
-/* The packed convolution (pl_s8_run_fn). Tiles: AVX-512 VNNI 12 pixels x 32 channels (24 zmm
+/* The packed convolution (pl_s8_run_fn). Tiles: AVX-512 VNNI 14 pixels x 32 channels (28 zmm
  * accumulators), AVX-VNNI 6 pixels x 16 channels (12 ymm), AVX2 4 x 16 (8 ymm: its 16-bit
  * products need 4 weight vectors per group, and more accumulators spill). The VNNI kernels need the
  * PL_S8_LAYOUT_VNNI packing, the AVX2 one PL_S8_LAYOUT_AVX2. */

@@ -12,6 +12,9 @@ with AVX-512 VNNI int8, 0.84 ms with AMX, 23-26 ms fp32; with T threads on the 2
 floor is the one-core floor / T. The share uses the VNNI floor for int8 (the path the kernels
 take) and 23 ms for fp32; the JSON also gives the AMX share. The MAC count is parlight bench's
 (computed from the model's input size and architecture) and divides every engine's time.
+"here": with --peak-json (tools/bench/peak.c's measurement of this core's VNNI and FMA rates),
+each row also gets the floor of this very machine, gmac / peak / T, and its share ("here"
+column): a core that issues one 512-bit VNNI or FMA a cycle has twice the DESIGN.md floor.
 
 Writes build/bench/bench-<UTC date>.json and build/bench/latest.json: machine, rows, peak RSS.
 """
@@ -69,7 +72,16 @@ def main(argv=None):
     ap.add_argument("--load-end", default="")
     ap.add_argument("--seconds", type=int, default=0)
     ap.add_argument("--out-dir", required=True)
+    ap.add_argument("--peak-json", default="")
     args = ap.parse_args(argv)
+    peak = None
+    if args.peak_json:
+        try:
+            with open(args.peak_json) as f:
+                peak = json.load(f)
+        except (OSError, ValueError):
+            peak = None
+    peak_gmac_s = {"int8": peak.get("vnni_gmac_s"), "fp32": peak.get("fma_gmac_s")} if peak else {}
 
     rows = []
     with open(args.rows) as f:
@@ -98,6 +110,9 @@ def main(argv=None):
             r["floor_share"] = floor * scale / med
             if prec == "int8":
                 r["floor_share_amx"] = FLOOR_AMX_MS * scale / med
+        if gmac and peak_gmac_s.get(prec):
+            r["floor_here_ms"] = gmac / peak_gmac_s[prec] * 1e3 / n
+            r["floor_here_share"] = r["floor_here_ms"] / med
         if r["engine"] != "parlight" and (prec, n) in ours:
             r["parlight_over_peer"] = ours[(prec, n)] / med
             if ours_cpu.get((prec, n)) and r.get("median_cpu_ms"):
@@ -123,6 +138,7 @@ def main(argv=None):
         "warmup": warmup,
         "floors_ms_one_core": {"int8_vnni": FLOOR_MS["int8"], "int8_amx": FLOOR_AMX_MS,
                                "fp32": [23.0, 26.0]},
+        "peak_one_core": peak,
         "rows": rows,
         "estimate_int8_peak_rss_kib": rss_kib,
         "help_peak_rss_kib": base_kib,
@@ -138,27 +154,32 @@ def main(argv=None):
           f"medians of {runs} runs after {warmup} warm-up; parlight ISA path {isa}")
     print(f"load average at start {args.load_start or '?'}, at end {args.load_end or '?'} "
           "(a shared machine: compare medians)")
+    # the targets are for the 192x256 input: 2.777 GMAC a frame
+    at_target_size = gmac is not None and abs(gmac - 2.777) < 0.01
     print()
     head = (f"{'engine':<13} {'prec':<5} {'thr':>3} {'median':>9} {'min':>9} {'max':>9} "
-            f"{'CPU':>8} {'parl/peer':>9} {'GMAC/s':>7} {'floor':>6}  notes")
+            f"{'CPU':>8} {'parl/peer':>9} {'GMAC/s':>7} {'floor':>6} {'here':>6}  notes")
     print(head)
     print("-" * len(head))
     for r in rows:
         name = ENGINE_NAMES.get(r["engine"], r["engine"])
         if r.get("status") != "ok":
             print(f"{name:<13} {r['precision']:<5} {r['threads']:>3} {'-':>9} {'-':>9} {'-':>9} "
-                  f"{'-':>8} {'-':>9} {'-':>7} {'-':>6}  {r.get('status')}")
+                  f"{'-':>8} {'-':>9} {'-':>7} {'-':>6} {'-':>6}  {r.get('status')}")
             continue
         share = r.get("floor_share")
         note = r.get("how", "")
         tgt = TARGETS.get((r["precision"], r["threads"])) if r["engine"] == "parlight" else None
-        if tgt:
+        if tgt and not at_target_size:
+            note = "(targets are for 192x256)"
+        elif tgt:
             note = f"target <= {tgt:g} ms: {'met' if r['median_ms'] <= tgt else 'not met'}"
         print(f"{name:<13} {r['precision']:<5} {r['threads']:>3} {r['median_ms']:>9.2f} "
               f"{r['min_ms']:>9.2f} {r['max_ms']:>9.2f} {fmt(r.get('median_cpu_ms'), '8.2f')} "
               f"{fmt(r.get('parlight_over_peer'), '9.2f')} "
               f"{fmt(r.get('gmac_per_s'), '7.1f')} {fmt(None if share is None else 100 * share, '5.1f')}%"
-              f"  {note}")
+              + (f" {'-':>6}" if 'floor_here_share' not in r else f" {100 * r['floor_here_share']:5.1f}%")
+              + f"  {note}")
     print()
     print("ms per frame; CPU: median CPU time of the whole process per frame (all threads; at 1 "
           "thread, close to a quiet machine's wall time);")
@@ -166,6 +187,10 @@ def main(argv=None):
           "< 1: parlight faster);")
     print(f"floor: the arithmetic floor's share of the median (one core: int8 VNNI "
           f"{FLOOR_MS['int8']} ms, fp32 23-26 ms (23 used), AMX {FLOOR_AMX_MS} ms; / threads)")
+    if peak:
+        print(f"here: the same for this machine's measured peak (tools/bench/peak.c, one core: "
+              f"VNNI {peak.get('vnni_gmac_s')} GMAC/s, FMA {peak.get('fma_gmac_s')} GFMA/s, "
+              f"clock {peak.get('clock_ghz')} GHz)")
     if rss_kib is not None:
         mb = rss_kib * 1024 / 1e6
         print(f"peak RSS of parlight estimate --model {args.int8} --input tests/data/frames: "

@@ -10,9 +10,11 @@
 #   PyTorch   fp32 and int8, 1 and 2 threads    (Debian's python3-torch; tools/bench/peers.py)
 #   ONNX Runtime fp32 and int8 QDQ, 1 and 2     (npm onnxruntime-node; tools/bench/ort_bench.js)
 # then the peak RSS of `parlight estimate` on the int8 model over tests/data/frames
-# (/usr/bin/time -v). tools/bench/report.py prints the table and writes it as JSON into
+# (/usr/bin/time -v), and one core's measured VNNI and FMA peak (tools/bench/peak.c) for the
+# "here" floor column. tools/bench/report.py prints the table and writes it as JSON into
 # build/bench/. A peer that cannot be installed or run gets a row saying why; the rest still runs.
-# Environment: BUILD, BENCH_RUNS, BENCH_WARMUP, BENCH_THREADS (default "1,2").
+# Environment: BUILD, BENCH_RUNS, BENCH_WARMUP, BENCH_THREADS (default "1,2"), BENCH_MODEL (a
+# float .plm instead of the default above; the targets of docs/PERFORMANCE.md are at 192x256).
 set -u
 cd "$(dirname "$0")/../.."
 BUILD=${BUILD:-build}
@@ -45,8 +47,8 @@ error_rows() {
 why() { tail -n 1 "$1" 2>/dev/null | cut -c1-200; }
 
 [ -x "$P" ] || { say "no $P: run make first"; exit 1; }
-MODEL=models/parlight-n3.plm
-[ -f "$MODEL" ] || MODEL=build/models/seeded-n3.plm
+MODEL=${BENCH_MODEL:-models/parlight-n3.plm}
+[ -n "${BENCH_MODEL:-}" ] || [ -f "$MODEL" ] || MODEL=build/models/seeded-n3.plm
 [ -f "$MODEL" ] || { say "no $MODEL (make build/models/seeded-n3.plm)"; exit 1; }
 INT8="$OUT/$(basename "$MODEL" .plm)-int8.plm"
 LOAD_START=$(cut -d' ' -f1-3 /proc/loadavg)
@@ -124,7 +126,14 @@ if [ -f "$INT8" ] && [ -x /usr/bin/time ]; then
     /usr/bin/time -v "$P" --help >/dev/null 2>"$OUT/time-base.log" && BASE_KIB=$(max_rss "$OUT/time-base.log")
 fi
 
+# --- one core's arithmetic peak (x86-64 with AVX-512 VNNI; elsewhere the column stays empty) ---
+PEAK_JSON=""
+if ${CC:-cc} -O2 -o "$OUT/peak" tools/bench/peak.c >>"$LOG" 2>&1 && "$OUT/peak" >"$OUT/peak.json" 2>>"$LOG"; then
+    PEAK_JSON="$OUT/peak.json"
+    say "one core's peak: $(cat "$PEAK_JSON")"
+fi
+
 LOAD_END=$(cut -d' ' -f1-3 /proc/loadavg)
 "$PY" tools/bench/report.py --rows "$ROWS" --model "$MODEL" --int8 "$INT8" --rss-kib "${RSS_KIB:-}" --base-rss-kib "${BASE_KIB:-}" \
     --load-start "$LOAD_START" --load-end "$LOAD_END" --seconds $(( $(date +%s) - T0 )) \
-    --out-dir "$OUT"
+    --out-dir "$OUT" --peak-json "$PEAK_JSON"
