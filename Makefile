@@ -205,11 +205,12 @@ demo:
 	@BUILD=$(BUILD) tools/demo.sh
 
 # On a cross board the programs run under the board's BOARD_RUNNER (qemu-aarch64 with its CPU
-# model); BOARD_TESTS (a grep pattern on test names) narrows what runs when set.
+# model); BOARD_TESTS (a grep pattern on test names) narrows what runs when set, and
+# BOARD_TEST_ENV (VAR=value ...) sizes the heavy tests for the emulator.
 test:
 	@BOARD=$(BOARD) tools/install-deps.sh
 	@$(MAKE) --no-print-directory all $(SEEDED)
-	@BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' \
+	@$(BOARD_TEST_ENV) BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' \
 	    tests/run.sh
 
 # The camera tests alone: pixel conversions, the QEMU + vivid rig and the QEMU + UVC webcam rig

@@ -19,3 +19,12 @@ BOARD_RUNNER   := qemu-aarch64 -cpu $(BOARD_QEMU_CPU) -L /usr/aarch64-linux-gnu
 # fmax() reduction over doubles, a pattern the tests use (test_sg.c, test_eval.c): no loop
 # vectorisation for the test programs only; the library and kernels keep it.
 BOARD_TEST_CFLAGS := -fno-tree-loop-vectorize
+# What `make test BOARD=...` runs under qemu (docs/PORTING.md): the unit tests, the CMSIS-NN golden
+# vectors, the float network against PyTorch (N = 3, 2 frames), the int8 network's byte-identity
+# across ISAs (one thread), the Arm int8 kernels under -cpu max (i8mm) and cortex-a72, and
+# model-file validation. Not run: the sink and V4L2 unit tests (OS interfaces, the same code on
+# every Linux: qemu-user does not emulate V4L2 ioctls, and Debian 12's qemu-aarch64 7.2 hangs
+# here in any program that starts a second thread, docs/PORTING.md) and the CLI/pipeline tests
+# (covered natively). Names end with (\.sh)?$ so test_eval does not pull in test_eval_cli.sh.
+BOARD_TESTS    := ^test_(arm_qemu_cpus|crop|eval|extract|extract_real|hdr_io|image_io|image_codec|json|kernels_s8|kernels_simd_s8|kernels_simd_f32|pixfmt|quant_fold|relight|render|requant|resize|sg|sh|source|temporal|nn_vectors|golden|isa_exact|model_files)(\.sh)?$
+BOARD_TEST_ENV := PL_GOLDEN_N=3 PL_GOLDEN_MAX_FRAMES=2

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# make demo: runs the shipped model (or, until a trained one exists, one exported from seeded
-# weights) on the shipped sample frames and prints the light parameters.
+# make demo: runs the shipped model (models/parlight-n3.plm and its int8 twin; without them, one
+# exported from seeded weights, with a warning) on the shipped sample frames and prints the light
+# parameters.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${BUILD:-build}
@@ -32,11 +33,16 @@ for line in open(sys.argv[1]):
           f'ambient {fmt(f["ambient"])}  {f["timing_ms"]["infer"]:.0f} ms')
 PY
 
-# the int8 path: quantise the same model on the sample frames and run it (docs/QUANT.md)
-q="$BUILD/demo-int8.plm"
+# the int8 path (docs/QUANT.md): the shipped int8 model beside the shipped float one, else the
+# float model quantised here on the sample frames
+q=models/parlight-n3-int8.plm
+if [ "$model" != models/parlight-n3.plm ] || [ ! -f "$q" ]; then
+    q="$BUILD/demo-int8.plm"
+    echo
+    echo "== parlight quantize --model $model --calib $frames --method percentile --out $q"
+    "$BUILD"/parlight quantize --model "$model" --calib "$frames" --method percentile --out "$q" --force
+fi
 echo
-echo "== parlight quantize --model $model --calib $frames --method percentile --out $q"
-"$BUILD"/parlight quantize --model "$model" --calib "$frames" --method percentile --out "$q" --force
 "$BUILD"/parlight info --model "$q"
 echo
 echo "== parlight estimate --model $q --input $frames (int8)"

@@ -20,7 +20,7 @@ fi
     echo "run.sh: no $CACHE/train-data/index.tsv (make the dataset first)" >&2; exit 1; }
 nohup nice -n 10 /usr/bin/python3 tools/train/train.py --data "$CACHE/train-data" \
     --ckpt-dir "$CACHE/train-ckpt" --log "$CACHE/train-log.txt" --input 96x128 --batch 16 \
-    --step1-epochs 100 --step2-epochs 50 --halve-every 25 --bf16 --threads 1 \
+    --step1-epochs 40 --step2-epochs 20 --halve-every 10 --bf16 --threads 1 \
     --export "$CACHE/parlight-n3-96x128.plm" "$@" >>"$CACHE/train-nohup.txt" 2>&1 &
 echo $! >"$PID"
 echo "run.sh: training started (pid $!), log $CACHE/train-log.txt"
