@@ -113,4 +113,4 @@ static void gather_row(float *d, const float *x, const int32_t *tab, int ky, int
 }
 
 #define CONV_GEMM_FN nn_conv_gemm_f32_8x12__neon
-#include "kernels/arm/nn_conv_gemm_f32_tmpl.h"
+#include "kernels/nn_conv_gemm_f32_tmpl.h"

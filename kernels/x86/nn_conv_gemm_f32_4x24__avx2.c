@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "kernels/kernels_f32.h"
+#include "kernels/x86/nn_f32_x86.h"
 
 _Static_assert(PL_F32_MR == 8 && PL_F32_NR == 48, "the layout is 8 x 48");
 
@@ -116,4 +117,4 @@ static void gather_row(float *d, const float *x, const int32_t *tab, int ky, int
 }
 
 #define CONV_GEMM_FN nn_conv_gemm_f32_4x24__avx2
-#include "kernels/x86/nn_conv_gemm_f32_tmpl.h"
+#include "kernels/nn_conv_gemm_f32_tmpl.h"

@@ -1,6 +1,8 @@
-/* The packed fp32 convolution's driver (kernels/kernels_f32.h), shared by the x86 paths.
+/* The packed fp32 convolution's driver (kernels/kernels_f32.h), shared by the x86 and Arm paths
+ * (kernels/x86/nn_conv_gemm_f32_*.c, kernels/arm/nn_conv_gemm_f32_*.c).
  *
- * The including file defines, before including this one:
+ * The including file includes its prototypes (kernels/<arch>/nn_f32_<arch>.h) and defines, before
+ * including this one:
  *   CONV_GEMM_FN            the kernel's name
  *   static void ukr(int k, const float *a, const float *b, float *c, size_t ldc, int rows,
  *                   int cols, const float *bias, int accumulate, int relu)
@@ -18,11 +20,10 @@
  * and then read from L1), then multiply every panel of the range with it while the weight panels
  * stream from L2. The summation order of an output depends only on K, never on the tile or panel
  * range. */
-#include <immintrin.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "kernels/kernels_f32.h"
-#include "kernels/x86/nn_f32_x86.h"
 
 #define KC PL_F32_KC
 
@@ -41,7 +42,7 @@ static const float *offset_ptr(const float *s, ptrdiff_t delta)
 /* The NR + 16 floats from s (prefetching never faults, s may lie outside the plane). */
 static void prefetch_next(const float *s)
 {
-    for (int i = 0; i < PL_F32_NR + 16; i += 16) _mm_prefetch((const char *)(s + i), _MM_HINT_T0);
+    for (int i = 0; i < PL_F32_NR + 16; i += 16) __builtin_prefetch(s + i); /* read, T0 */
 }
 
 /* 1x1, stride 1, pad 0: B row k is input channel k, optionally through max(0, scale*x + shift). */
