@@ -10,61 +10,48 @@
 #include "kernels/arm/nn_f32_arm.h"
 #endif
 
+/* A slot and the name `parlight info` prints for it, from one identifier. */
+#define SLOT(slot, fn) (t->slot = fn, t->slot##_name = #fn)
+
 void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
 {
     memset(t, 0, sizeof *t);
-    t->bn_relu = nn_bn_relu_f32__ref;
-    t->maxpool = nn_maxpool2d_f32__ref;
-    t->avgpool = nn_avgpool2d_f32__ref;
-    t->fc = nn_fc_f32__ref;
-    t->bn_relu_name = "nn_bn_relu_f32__ref";
-    t->maxpool_name = "nn_maxpool2d_f32__ref";
-    t->avgpool_name = "nn_avgpool2d_f32__ref";
-    t->fc_name = "nn_fc_f32__ref";
+    SLOT(bn_relu, nn_bn_relu_f32__ref);
+    SLOT(maxpool, nn_maxpool2d_f32__ref);
+    SLOT(avgpool, nn_avgpool2d_f32__ref);
+    SLOT(fc, nn_fc_f32__ref);
 #if defined(__x86_64__)
     if (pl_isa_includes(isa, PL_ISA_AVX512VNNI)) {
         t->packed = 1;
-        t->conv = nn_conv_gemm_f32_8x48__avx512vnni;
-        t->conv_name = "nn_conv_gemm_f32_8x48__avx512vnni";
-        t->bn_relu = nn_bn_relu_f32__avx512vnni;
-        t->bn_relu_name = "nn_bn_relu_f32__avx512vnni";
-        t->fc = nn_fc_f32__avx512vnni;
-        t->fc_name = "nn_fc_f32__avx512vnni";
-        t->maxpool = nn_maxpool2d_f32__avx512vnni;
-        t->maxpool_name = "nn_maxpool2d_f32__avx512vnni";
-        t->avgpool = nn_avgpool2d_f32__avx512vnni;
-        t->avgpool_name = "nn_avgpool2d_f32__avx512vnni";
+        SLOT(conv, nn_conv_gemm_f32_8x48__avx512vnni);
+        SLOT(bn_relu, nn_bn_relu_f32__avx512vnni);
+        SLOT(fc, nn_fc_f32__avx512vnni);
+        SLOT(maxpool, nn_maxpool2d_f32__avx512vnni);
+        SLOT(avgpool, nn_avgpool2d_f32__avx512vnni);
     } else if (pl_isa_includes(isa, PL_ISA_AVX2)) {
         t->packed = 1;
-        t->conv = nn_conv_gemm_f32_4x24__avx2;
-        t->conv_name = "nn_conv_gemm_f32_4x24__avx2";
-        t->bn_relu = nn_bn_relu_f32__avx2;
-        t->bn_relu_name = "nn_bn_relu_f32__avx2";
-        t->fc = nn_fc_f32__avx2;
-        t->fc_name = "nn_fc_f32__avx2";
-        t->maxpool = nn_maxpool2d_f32__avx2;
-        t->maxpool_name = "nn_maxpool2d_f32__avx2";
-        t->avgpool = nn_avgpool2d_f32__avx2;
-        t->avgpool_name = "nn_avgpool2d_f32__avx2";
+        SLOT(conv, nn_conv_gemm_f32_4x24__avx2);
+        SLOT(bn_relu, nn_bn_relu_f32__avx2);
+        SLOT(fc, nn_fc_f32__avx2);
+        SLOT(maxpool, nn_maxpool2d_f32__avx2);
+        SLOT(avgpool, nn_avgpool2d_f32__avx2);
     }
 #elif defined(__aarch64__)
     /* NEON for every Arm path (dotprod and i8mm add nothing to fp32); bn_relu stays the
      * reference loop, which gcc already vectorises for the AArch64 baseline */
     if (pl_isa_includes(isa, PL_ISA_NEON)) {
         t->packed = 1;
-        t->conv = nn_conv_gemm_f32_8x12__neon;
-        t->conv_name = "nn_conv_gemm_f32_8x12__neon";
-        t->fc = nn_fc_f32__neon;
-        t->fc_name = "nn_fc_f32__neon";
-        t->maxpool = nn_maxpool2d_f32__neon;
-        t->maxpool_name = "nn_maxpool2d_f32__neon";
-        t->avgpool = nn_avgpool2d_f32__neon;
-        t->avgpool_name = "nn_avgpool2d_f32__neon";
+        SLOT(conv, nn_conv_gemm_f32_8x12__neon);
+        SLOT(fc, nn_fc_f32__neon);
+        SLOT(maxpool, nn_maxpool2d_f32__neon);
+        SLOT(avgpool, nn_avgpool2d_f32__neon);
     }
 #else
     (void)isa;
 #endif
 }
+
+#undef SLOT
 
 int pl_kernels_f32_list(const pl_kernels_f32 *t, const char **op, const char **impl, int max)
 {

@@ -130,7 +130,11 @@ static void fold_bias(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
     }
 }
 
-static void pack_vnni(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
+/* The VNNI layout: per block of 16 output channels and group of 4 input channels, each channel's
+ * 4 weights in a row. `signed_a` says how the bias is folded: for u8 A (x86 VNNI) or s8 A (Arm
+ * sdot and NEON). */
+static void pack_groups4(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem,
+                         int signed_a)
 {
     const int groups = c->k_h * c->k_w * (c->cs / 4), nb = blocks_of(c->out_c);
     int8_t *w = mem;
@@ -141,7 +145,12 @@ static void pack_vnni(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
                     *w++ = w_at(c, weights, b * PL_S8_OCB + j, g, e);
     c->w = mem;
     c->bias = (const int32_t *)(void *)w;
-    fold_bias(c, weights, bias, 0, (int32_t *)(void *)w);
+    fold_bias(c, weights, bias, signed_a, (int32_t *)(void *)w);
+}
+
+static void pack_vnni(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
+{
+    pack_groups4(c, weights, bias, mem, 0);
 }
 
 static void pack_avx2(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
@@ -162,16 +171,7 @@ static void pack_avx2(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
 /* Arm NEON / dotprod: the VNNI layout with the bias folded for signed A (kernels/arm). */
 static void pack_sdot(pl_s8_conv *c, const int8_t *weights, const int32_t *bias, void *mem)
 {
-    const int groups = c->k_h * c->k_w * (c->cs / 4), nb = blocks_of(c->out_c);
-    int8_t *w = mem;
-    for (int b = 0; b < nb; b++)
-        for (int g = 0; g < groups; g++)
-            for (int j = 0; j < PL_S8_OCB; j++)
-                for (int e = 0; e < 4; e++)
-                    *w++ = w_at(c, weights, b * PL_S8_OCB + j, g, e);
-    c->w = mem;
-    c->bias = (const int32_t *)(void *)w;
-    fold_bias(c, weights, bias, 1, (int32_t *)(void *)w);
+    pack_groups4(c, weights, bias, mem, 1);
 }
 
 /* Arm i8mm: per block, tap and group of 8 channels (zero weights for [in_c, round8(cs))), the
