@@ -130,7 +130,8 @@ MODS=vivid
 for m in $MODS; do
     modprobe -d "$KROOT" -S "$KVER" --show-depends "$m" | while read -r kw path rest; do
         [ "$kw" = insmod ] || continue
-        rel=${path#"$KROOT"}
+        # the module's path in the guest (modprobe prints it absolute, whatever form -d had)
+        rel=/lib/modules/${path#*/lib/modules/}
         mkdir -p "$STAGE$(dirname "$rel")"
         cp "$path" "$STAGE$rel"
         grep -qxF "$rel" "$STAGE/modules.list" || echo "$rel" >>"$STAGE/modules.list"
