@@ -1,20 +1,11 @@
-/* Shared by the light/ tests: a CHECK macro that counts failures, and a few helpers. */
+/* Shared by the light/ tests: tests/check.h and a few vector helpers. */
 #ifndef PL_TESTS_LIGHT_TEST_H
 #define PL_TESTS_LIGHT_TEST_H
 
 #include <math.h>
 #include <stdio.h>
 
-static int failures;
-#define CHECK(c, ...)                                                                              \
-    do {                                                                                           \
-        if (!(c)) {                                                                                \
-            failures++;                                                                            \
-            printf("FAIL %s:%d: ", __FILE__, __LINE__);                                            \
-            printf(__VA_ARGS__);                                                                   \
-            printf("\n");                                                                          \
-        }                                                                                          \
-    } while (0)
+#include "tests/check.h"
 
 static inline void unit3(float v[3])
 {

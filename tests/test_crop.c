@@ -16,17 +16,7 @@
 #include "light/lights_json.h"
 #include "port/hdr_io.h"
 #include "port/util.h"
-
-static int failures;
-#define CHECK(c, ...)                                                                              \
-    do {                                                                                           \
-        if (!(c)) {                                                                                \
-            failures++;                                                                            \
-            printf("FAIL %s:%d: ", __FILE__, __LINE__);                                            \
-            printf(__VA_ARGS__);                                                                   \
-            printf("\n");                                                                          \
-        }                                                                                          \
-    } while (0)
+#include "tests/check.h"
 
 static void dir_of(double yaw_deg, double pitch_deg, float d[3])
 {

@@ -13,17 +13,7 @@
 #include "port/image.h"
 #include "port/test_helpers.h"
 #include "port/util.h"
-
-static int failures;
-#define CHECK(c, ...)                                                                              \
-    do {                                                                                           \
-        if (!(c)) {                                                                                \
-            failures++;                                                                            \
-            printf("FAIL %s:%d: ", __FILE__, __LINE__);                                            \
-            printf(__VA_ARGS__);                                                                   \
-            printf("\n");                                                                          \
-        }                                                                                          \
-    } while (0)
+#include "tests/check.h"
 
 static char tmpdir[512];
 
@@ -63,14 +53,6 @@ static void spit(const char *path, const void *b, size_t len)
     fclose(f);
 }
 
-static uint32_t rng = 777;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 17;
-    rng ^= rng << 5;
-    return rng;
-}
 
 static void random_rgb(pl_image_u8 *img, int w, int h)
 {

@@ -13,15 +13,6 @@
 #include "port/json.h"
 #include "port/util.h"
 
-static uint32_t rng = 2463534242u;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 17;
-    rng ^= rng << 5;
-    return rng;
-}
-
 static int parse(const char *s, pl_json_doc *d)
 {
     return pl_json_parse(s, strlen(s), "t.json", d);

@@ -13,32 +13,9 @@
 #include "kernels/ref/nn_ref_s8.h"
 #include "port/util.h"
 #include "quant/requant.h"
+#define CHECK_RNG_SEED 0x2545f4914f6cdd1dULL
+#include "tests/check.h"
 
-static int failures;
-#define CHECK(cond, ...)                                                                           \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            if (failures++ < 20) {                                                                 \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__);                                        \
-                printf(__VA_ARGS__);                                                               \
-                printf("\n");                                                                      \
-            }                                                                                      \
-        }                                                                                          \
-    } while (0)
-
-static uint64_t rng = 0x2545f4914f6cdd1dULL;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (uint32_t)(rng >> 16);
-}
-/* uniform in [lo, hi] */
-static int rint_in(int lo, int hi)
-{
-    return lo + (int)(rnd() % (uint32_t)(hi - lo + 1));
-}
 /* int8 values, a quarter of them at the extremes */
 static void fill_s8(int8_t *p, size_t n)
 {

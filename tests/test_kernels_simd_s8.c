@@ -20,31 +20,7 @@
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
 #include "port/util.h"
-
-static int failures;
-#define CHECK(cond, ...)                                                                           \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            if (failures++ < 20) {                                                                 \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__);                                        \
-                printf(__VA_ARGS__);                                                               \
-                printf("\n");                                                                      \
-            }                                                                                      \
-        }                                                                                          \
-    } while (0)
-
-static uint64_t rng = 0x9e3779b97f4a7c15ULL;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (uint32_t)(rng >> 16);
-}
-static int rint_in(int lo, int hi)
-{
-    return lo + (int)(rnd() % (uint32_t)(hi - lo + 1));
-}
+#include "tests/check.h"
 
 /* int8 values; mode 0: random with a quarter at -128/127, 1: all -128, 2: all 127,
  * 3: only -128 and 127 */

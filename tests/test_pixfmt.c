@@ -8,17 +8,7 @@
 
 #include "port/pixfmt.h"
 #include "port/util.h"
-
-static int failures;
-#define CHECK(c, ...)                                                                              \
-    do {                                                                                           \
-        if (!(c)) {                                                                                \
-            failures++;                                                                            \
-            printf("FAIL %s:%d: ", __FILE__, __LINE__);                                            \
-            printf(__VA_ARGS__);                                                                   \
-            printf("\n");                                                                          \
-        }                                                                                          \
-    } while (0)
+#include "tests/check.h"
 
 /* The formula of port/pixfmt.h in double precision, rounded and clamped. */
 static void exact(pl_yuv_matrix m, pl_yuv_range r, int y, int u, int v, double rgb[3])

@@ -22,31 +22,8 @@
 #include "port/util.h"
 #include "quant/fold.h"
 #include "quant/requant.h"
+#include "tests/check.h"
 
-static int failures;
-#define CHECK(cond, ...)                                                                           \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            if (failures++ < 20) {                                                                 \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__);                                        \
-                printf(__VA_ARGS__);                                                               \
-                printf("\n");                                                                      \
-            }                                                                                      \
-        }                                                                                          \
-    } while (0)
-
-static uint64_t rng = 0x9e3779b97f4a7c15ULL;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (uint32_t)(rng >> 16);
-}
-static int rint_in(int lo, int hi)
-{
-    return lo + (int)(rnd() % (uint32_t)(hi - lo + 1));
-}
 static double urand(double lo, double hi)
 {
     return lo + (hi - lo) * (rnd() / 4294967296.0);

@@ -10,18 +10,7 @@
 
 #include "port/util.h"
 #include "quant/requant.h"
-
-static int failures;
-#define CHECK(cond, ...)                                                                           \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            if (failures++ < 20) {                                                                 \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__);                                        \
-                printf(__VA_ARGS__);                                                               \
-                printf("\n");                                                                      \
-            }                                                                                      \
-        }                                                                                          \
-    } while (0)
+#include "tests/check.h"
 
 /* --- Reference, from the definition ---------------------------------------------------------
  * Long double has a 64-bit (x86) or 113-bit (aarch64) significand: a*b (< 2^62 in magnitude),
@@ -79,14 +68,6 @@ static void make_accs(void)
     add_acc(INT32_MAX - 1);
 }
 
-static uint64_t rng = 0x9e3779b97f4a7c15ULL;
-static uint32_t next_u32(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (uint32_t)(rng >> 16);
-}
 
 static void test_high_mul(void)
 {
@@ -110,7 +91,7 @@ static void test_high_mul(void)
     CHECK(pl_sat_rounding_doubling_high_mul(-3, 1 << 30) == -1, "-1.5 -> -1");
     CHECK(pl_sat_rounding_doubling_high_mul(3, 1 << 30) == 2, "+1.5 -> 2");
     for (int i = 0; i < 200000; i++) {
-        const int32_t a = (int32_t)next_u32(), b = (int32_t)next_u32();
+        const int32_t a = (int32_t)rnd(), b = (int32_t)rnd();
         CHECK(pl_sat_rounding_doubling_high_mul(a, b) == ref_high_mul(a, b),
               "high_mul(%ld, %ld) random", (long)a, (long)b);
     }
@@ -156,9 +137,9 @@ static void test_requantize(void)
                       (long)s, (long)got, (long)want);
             }
     for (int i = 0; i < 300000; i++, cases++) {
-        const int32_t a = (int32_t)next_u32() >> (next_u32() % 32);
-        const int32_t m = (int32_t)((1u << 30) | (next_u32() & 0x3fffffffu));
-        const int32_t s = (int32_t)(next_u32() % 62) - 31;
+        const int32_t a = (int32_t)rnd() >> (rnd() % 32);
+        const int32_t m = (int32_t)((1u << 30) | (rnd() & 0x3fffffffu));
+        const int32_t s = (int32_t)(rnd() % 62) - 31;
         CHECK(pl_requantize(a, m, s) == ref_requant(a, m, s), "requantize(%ld, %ld, %ld) random",
               (long)a, (long)m, (long)s);
     }
@@ -213,7 +194,7 @@ static void test_quantize_multiplier(void)
     for (int i = 0; i < 100000; i++) {
         /* log-uniform in [2^-31, 2^29] */
         const double real =
-            ldexp(1.0 + (double)next_u32() / 4294967296.0, (int)(next_u32() % 60) - 31);
+            ldexp(1.0 + (double)rnd() / 4294967296.0, (int)(rnd() % 60) - 31);
         if (pl_quantize_multiplier(real, &m, &s) != PL_OK) {
             CHECK(0, "quantize_multiplier(%.17g): %s", real, pl_last_error());
             continue;
@@ -223,7 +204,7 @@ static void test_quantize_multiplier(void)
               "range: %.17g -> (%ld, %ld)", real, (long)m, (long)s);
         CHECK(fabs(back - real) <= real * ldexp(1.0, -31), "round trip %.17g -> %.17g", real, back);
         /* and requantising with it approximates acc * real (to within 1 plus the Q31 error) */
-        const int32_t acc = (int32_t)(next_u32() >> 12) - (1 << 19);
+        const int32_t acc = (int32_t)(rnd() >> 12) - (1 << 19);
         const double want = (double)acc * real;
         if (fabs(want) < 1e9) {
             const int32_t got = pl_requantize(acc, m, s);

@@ -14,17 +14,7 @@
 #include "port/source.h"
 #include "port/util.h"
 #include "port/v4l2.h"
-
-static int failures;
-#define CHECK(c, ...)                                                                              \
-    do {                                                                                           \
-        if (!(c)) {                                                                                \
-            failures++;                                                                            \
-            printf("FAIL %s:%d: ", __FILE__, __LINE__);                                            \
-            printf(__VA_ARGS__);                                                                   \
-            printf("\n");                                                                          \
-        }                                                                                          \
-    } while (0)
+#include "tests/check.h"
 
 static void good(const char *spec, const char *path, int w, int h, double fps, uint32_t fourcc)
 {
