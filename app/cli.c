@@ -4,6 +4,8 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
 
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out)
 {
@@ -36,4 +38,22 @@ bad:
     fprintf(stderr, "parlight %s: %s '%s': expected three finite numbers x,y,z (metres)\n", cmd,
             flag, s);
     return -1;
+}
+
+int cli_getopt_error(const char *cmd, int c, char *const argv[])
+{
+    /* getopt_long has moved optind past the option it is reporting, except after an unknown
+     * short option inside a cluster such as -jx, where optopt names it */
+    const char *arg = argv[optind - 1];
+    if (c == ':')
+        fprintf(stderr, "parlight %s: %s needs a value\n", cmd, arg);
+    else if (strncmp(arg, "--", 2) == 0 && strchr(arg, '='))
+        fprintf(stderr, "parlight %s: '%s': unknown option, or a value for one that takes none "
+                "(see --help)\n", cmd, arg);
+    else if (strncmp(arg, "--", 2) == 0)
+        fprintf(stderr, "parlight %s: unknown option '%s' (see --help)\n", cmd, arg);
+    else
+        fprintf(stderr, "parlight %s: unknown option '-%c' (see --help)\n", cmd,
+                optopt > 32 && optopt < 127 ? optopt : '?');
+    return 2;
 }

@@ -6,4 +6,10 @@
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out);
 int cli_float3(const char *cmd, const char *flag, const char *s, float out[3]);
 
+/* For getopt_long's ':' (an option without its value; the optstring must start with ':') and
+ * '?' (an unknown option, or a value given to one that takes none) results `c`: prints
+ * "parlight <cmd>: ..." naming the option as the user wrote it and returns 2, the exit status
+ * for a usage error. */
+int cli_getopt_error(const char *cmd, int c, char *const argv[]);
+
 #endif

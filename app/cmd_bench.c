@@ -217,12 +217,8 @@ int cmd_bench(int argc, char **argv)
         case 'h':
             help(stdout);
             return 0;
-        case ':':
-            fprintf(stderr, "parlight bench: %s needs a value\n", argv[optind - 1]);
-            return 2;
         default:
-            fprintf(stderr, "parlight bench: unknown option '%s' (see --help)\n", argv[optind - 1]);
-            return 2;
+            return cli_getopt_error("bench", c, argv);
         }
     }
     if (optind < argc) {

@@ -252,13 +252,8 @@ int cmd_cameras(int argc, char **argv)
         case 'h':
             help(stdout);
             return 0;
-        case ':':
-            fprintf(stderr, "parlight cameras: %s needs a value\n", argv[optind - 1]);
-            return 2;
         default:
-            fprintf(stderr, "parlight cameras: unknown option '%s' (see --help)\n",
-                    argv[optind - 1]);
-            return 2;
+            return cli_getopt_error("cameras", c, argv);
         }
     }
     if (optind < argc) {

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "app/cli.h"
 #include "app/commands.h"
 #include "app/light_io.h"
 #include "light/light.h"
@@ -61,7 +62,7 @@ int cmd_compare(int argc, char **argv)
     optind = 1;
     opterr = 0;
     for (;;) {
-        int c = getopt_long(argc, argv, "h", opts, NULL);
+        int c = getopt_long(argc, argv, ":h", opts, NULL);
         if (c == -1) break;
         switch (c) {
         case 's':
@@ -93,10 +94,7 @@ int cmd_compare(int argc, char **argv)
             usage(stdout);
             return 0;
         default:
-            fprintf(stderr, "parlight compare: unknown or incomplete option '%s'\n",
-                    argv[optind - 1]);
-            usage(stderr);
-            return 2;
+            return cli_getopt_error("compare", c, argv);
         }
     }
     if (argc - optind != 2) {

@@ -157,7 +157,7 @@ int cmd_crop(int argc, char **argv)
     optind = 1;
     opterr = 0;
     int c;
-    while ((c = getopt_long(argc, argv, "h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
         switch (c) {
         case 'i':
             hdr = optarg;
@@ -214,9 +214,7 @@ int cmd_crop(int argc, char **argv)
             usage(stdout);
             return 0;
         default:
-            fprintf(stderr, "parlight crop: unknown or incomplete option '%s'\n", argv[optind - 1]);
-            usage(stderr);
-            return 2;
+            return cli_getopt_error("crop", c, argv);
         }
     }
     if (optind < argc) {

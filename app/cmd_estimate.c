@@ -187,13 +187,8 @@ int cmd_estimate(int argc, char **argv)
             outs[n_outs++] = optarg;
             break;
         case 'h': help(stdout); return 0;
-        case ':':
-            fprintf(stderr, "parlight estimate: %s needs a value\n", argv[optind - 1]);
-            return 2;
         default:
-            fprintf(stderr, "parlight estimate: unknown option '%s' (see --help)\n",
-                    argv[optind - 1]);
-            return 2;
+            return cli_getopt_error("estimate", c, argv);
         }
     }
     if (optind < argc) {

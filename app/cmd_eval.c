@@ -387,12 +387,8 @@ int cmd_eval(int argc, char **argv)
         case 'h':
             usage(stdout);
             return 0;
-        case ':':
-            fprintf(stderr, "parlight eval: %s needs a value\n", argv[optind - 1]);
-            return 2;
         default:
-            fprintf(stderr, "parlight eval: unknown option '%s' (see --help)\n", argv[optind - 1]);
-            return 2;
+            return cli_getopt_error("eval", c, argv);
         }
     }
     if (optind < argc) {

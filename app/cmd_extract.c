@@ -62,7 +62,7 @@ int cmd_extract(int argc, char **argv)
     optind = 1;
     opterr = 0;
     int c;
-    while ((c = getopt_long(argc, argv, "h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
         switch (c) {
         case 'i':
             hdr = optarg;
@@ -105,10 +105,7 @@ int cmd_extract(int argc, char **argv)
             usage(stdout);
             return 0;
         default:
-            fprintf(stderr, "parlight extract: unknown or incomplete option '%s'\n",
-                    argv[optind - 1]);
-            usage(stderr);
-            return 2;
+            return cli_getopt_error("extract", c, argv);
         }
     }
     if (optind < argc) {

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "app/cli.h"
 #include "app/commands.h"
 #include "kernels/dispatch.h"
 #include "parlight.h"
@@ -53,8 +54,8 @@ int cmd_info(int argc, char **argv)
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'h': help(stdout); return 0;
-        case ':': fprintf(stderr, "parlight info: %s needs a value\n", argv[optind - 1]); return 2;
-        default: fprintf(stderr, "parlight info: unknown option '%s'\n", argv[optind - 1]); return 2;
+        default:
+            return cli_getopt_error("info", c, argv);
         }
     }
     if (optind < argc) {

@@ -147,12 +147,8 @@ int cmd_qcheck(int argc, char **argv)
         case 'h':
             help(stdout);
             return 0;
-        case ':':
-            fprintf(stderr, "parlight qcheck: %s needs a value\n", argv[optind - 1]);
-            return 2;
         default:
-            fprintf(stderr, "parlight qcheck: unknown option '%s'\n", argv[optind - 1]);
-            return 2;
+            return cli_getopt_error("qcheck", c, argv);
         }
     }
     if (optind < argc) {

@@ -127,12 +127,8 @@ int cmd_quantize(int argc, char **argv)
         case 'h':
             help(stdout);
             return 0;
-        case ':':
-            fprintf(stderr, "parlight quantize: %s needs a value\n", argv[optind - 1]);
-            return 2;
         default:
-            fprintf(stderr, "parlight quantize: unknown option '%s'\n", argv[optind - 1]);
-            return 2;
+            return cli_getopt_error("quantize", c, argv);
         }
     }
     if (optind < argc) {

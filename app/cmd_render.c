@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "app/cli.h"
 #include "app/commands.h"
 #include "app/light_io.h"
 #include "light/light.h"
@@ -83,7 +84,7 @@ int cmd_render(int argc, char **argv)
     optind = 1;
     opterr = 0;
     for (;;) {
-        int c = getopt_long(argc, argv, "h", opts, NULL);
+        int c = getopt_long(argc, argv, ":h", opts, NULL);
         if (c == -1) break;
         switch (c) {
         case 'l':
@@ -140,10 +141,7 @@ int cmd_render(int argc, char **argv)
             usage(stdout);
             return 0;
         default:
-            fprintf(stderr, "parlight render: unknown or incomplete option '%s'\n",
-                    argv[optind - 1]);
-            usage(stderr);
-            return 2;
+            return cli_getopt_error("render", c, argv);
         }
     }
     if (optind < argc) {

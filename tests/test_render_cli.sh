@@ -88,7 +88,7 @@ expect 2 "--sphere 'shiny'" -- "$P" render --lights "$T/L.json" --out "$T/x.png"
 expect 2 "exclusive" -- "$P" render --lights "$T/L.json" --out "$T/x.png" --sphere diffuse --cubemap 8
 expect 2 "panorama has no depth" -- "$P" render --env "$T/map.exr" --out "$T/x.png" --sphere diffuse --at 0,0,1
 expect 2 "--cubemap '0'" -- "$P" render --lights "$T/L.json" --out "$T/x.png" --cubemap 0
-expect 2 "unknown or incomplete option" -- "$P" render --bogus
+expect 2 "unknown option '--bogus'" -- "$P" render --bogus
 expect 2 "expected two inputs" -- "$P" compare "$T/L.json"
 expect 1 "unknown input type" -- "$P" compare "$T/L.json" "$T/map.png"
 expect 2 "--size '0'" -- "$P" compare "$T/L.json" "$T/L.json" --size 0
