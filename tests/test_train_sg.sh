@@ -5,6 +5,10 @@
 # truth of the sample frames (tests/data/frames-gt) and for a synthetic set of lights on the
 # axes and near the poles and the seam, at widths 64 and 256. Negative control: the same lights
 # mirrored in x must NOT match (so the comparison can fail).
+# The diffuse sphere of the training's render loss (sg.diffuse over a 256-wide SG map) against
+# the C analytic one (`parlight render --sphere diffuse --size 32`, pl_render_sphere_lights):
+# relative RMSE <= 1% each (the map's sampling and the RGBE file); the first set mirrored must
+# be off by more than 10%.
 # Env: BUILD, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
 set -u
 cd "$(dirname "$0")/.."
@@ -60,4 +64,36 @@ EOF
 if "$PY" tools/train/sg.py --lights "$TMP/mirror.json" --compare-hdr "$TMP/m.hdr" >/dev/null; then
     fail "mirrored lights matched the C map: the comparison cannot fail"
 fi
-echo "ok: $n maps match parlight render; mirrored lights are rejected"
+spheres=()
+for L in "$TMP/axes.json" tests/data/frames-gt/*.json; do
+    n=$((n + 1))
+    "$BUILD/parlight" render --lights "$L" --sphere diffuse --size 32 --out "$TMP/s$n.hdr" \
+        --force >/dev/null || fail "parlight render --sphere diffuse $L"
+    spheres+=("$L" "$TMP/s$n.hdr")
+done
+"$PY" - "$TMP/mirror.json" "${spheres[@]}" <<'EOF' || fail "sg.diffuse differs from parlight render --sphere diffuse (see above)"
+import json, sys
+import torch
+sys.path.insert(0, "tools/train")
+import sg
+nrm = sg.sphere_normals(32, torch.float64)
+op = sg.diffuse_operator(256, nrm, torch.float64)
+c = (torch.arange(32, dtype=torch.float64) + 0.5) / 16 - 1
+on = (c.view(1, -1) ** 2 + c.view(-1, 1) ** 2) <= 1
+mirror, args = sys.argv[1], sys.argv[2:]
+ok = nrm.shape[0] == int(on.sum())
+for i, (L, ref_path) in enumerate(zip(args[::2], args[1::2])):
+    want = torch.from_numpy(sg.read_rgbe(ref_path).astype("float64"))[on]
+    def rel(path):
+        got = sg.diffuse(sg.render_json(json.load(open(path)), 256, sg.pixel_sigma(256))[None], op)[0]
+        return float(torch.sqrt(((got - want) ** 2).mean()) / torch.sqrt((want ** 2).mean()))
+    r = rel(L)
+    print(f"sg.diffuse vs parlight render --sphere diffuse: relative RMSE {r:.4f} ({L})")
+    ok &= r <= 0.01
+    if i == 0:
+        rm = rel(mirror)
+        print(f"  mirrored lights: relative RMSE {rm:.4f} (must exceed 0.1)")
+        ok &= rm > 0.1
+sys.exit(0 if ok else 1)
+EOF
+echo "ok: $n maps and spheres match parlight render; mirrored lights are rejected"

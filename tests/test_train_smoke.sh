@@ -87,4 +87,20 @@ f=$(ls "$TMP"/data/crops/*.png | head -1)
 "$PY" tools/train/train.py --export-only "$TMP/ck/step1.pt" "$TMP/s1.plm" >/dev/null ||
     fail "--export-only"
 "$BUILD/parlight" info --model "$TMP/s1.plm" >/dev/null || fail "step1 export does not load"
+
+# --- the diffuse-sphere terms: step 2 from a step-1 checkpoint with --step2-loss render moves
+# only the heads step 2 trains; step 1 with --w-d1 logs the term ---
+"${TR[@]}" --ckpt-dir "$TMP/ck3" --log "$TMP/log3" --step2-from "$TMP/ck/step1.pt" \
+    --step2-loss render --w-d 2 >/dev/null || fail "--step2-from --step2-loss render"
+grep -q "step2 epoch 2/2 .* sphere [0-9]" "$TMP/log3" || fail "no sphere term in $(cat "$TMP/log3")"
+"$PY" - "$TMP/ck/step1.pt" "$TMP/ck3/final.pt" <<'EOF' || fail "--step2-from trained the wrong part"
+import sys, torch
+a, b = (torch.load(p, map_location="cpu")["model"] for p in sys.argv[1:3])
+moved = {k.split(".")[0] for k in a if not torch.equal(a[k], b[k])}
+assert moved and moved <= {"head_size", "head_rgb", "head_ambient"}, moved
+print(f"step 2 (render) from step1.pt moved {sorted(moved)} only")
+EOF
+"${TR[@]}" --ckpt-dir "$TMP/ck4" --log "$TMP/log4" --step1-epochs 1 --step2-epochs 0 --w-d1 5 \
+    >/dev/null || fail "--w-d1"
+grep -q "step1 epoch 1/1 .* sphere [0-9]" "$TMP/log4" || fail "no sphere term in $(cat "$TMP/log4")"
 echo "ok"

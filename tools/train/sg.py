@@ -72,6 +72,36 @@ def render(dirs, size, rgb, udirs, ambient=None, mask=None, prefilter_sigma=0.0)
     return out
 
 
+def sphere_normals(size, dtype=torch.float32):
+    """[P, 3] normals of the pixels of a size x size sphere render that lie on the sphere, in
+    row order (pl_sphere_mask: orthographic camera looking along -z, n.z >= 0)."""
+    c = (torch.arange(size, dtype=torch.float64) + 0.5) * 2.0 / size - 1.0
+    sx = c.view(1, size).expand(size, size)
+    sy = -c.view(size, 1).expand(size, size)
+    r2 = sx * sx + sy * sy
+    on = r2 <= 1.0
+    n = torch.stack([sx[on], sy[on], torch.sqrt(1.0 - r2[on])], dim=-1)
+    return n.to(dtype)
+
+
+def diffuse_operator(width, normals, dtype=torch.float32):
+    """[H*W, P] weights that turn a W x W/2 map's pixels into the white Lambertian sphere's
+    radiance at `normals` ((1/pi) int L max(0, n.u) du), normalised per normal as
+    pl_render_sphere_envmap does (sum w L dw / sum w dw), so a constant map renders exactly."""
+    u = equirect_dirs(width, torch.float64)
+    h = width // 2
+    theta = (0.5 - (torch.arange(h, dtype=torch.float64) + 0.5) / h) * math.pi
+    dw = (torch.cos(theta) * (2.0 * math.pi / width) * (math.pi / h)).view(h, 1).expand(h, width)
+    w = torch.clamp(u.reshape(-1, 3) @ normals.to(torch.float64).T, min=0.0) * dw.reshape(-1, 1)
+    return (w / w.sum(0, keepdim=True)).to(dtype)
+
+
+def diffuse(maps, op):
+    """[B, P, 3] diffuse sphere radiance of maps [B, H, W, 3] through diffuse_operator's op."""
+    b, h, w, c = maps.shape
+    return torch.einsum("bqc,qp->bpc", maps.reshape(b, h * w, c), op)
+
+
 def lights_from_json(obj, max_lights=16, normalize=True):
     """(dirs [N,3], size [N], rgb [N,3], distance [N], ambient [3]) float64 tensors of a lights
     JSON object (docs/LIGHTING.md), validated; dir normalised as light/lights_json.c does."""

@@ -5,6 +5,8 @@
                          [--log /work/cache/train-log.txt] [--input 96x128] [--n-lights 3]
                          [--step1-epochs 60] [--step2-epochs 50] [--halve-every 25] [--lr 1e-3]
                          [--batch 16] [--bf16] [--threads 2] [--export OUT.plm]
+                         [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
+                         [--step2-from STEP1.pt]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -22,6 +24,13 @@ ground-truth light by angle, if within 45 degrees, gives L2 losses on distance, 
 (none otherwise), plus the ambient L2; only the size, colour, ambient and distance heads train.
 Because everything they read (z, h, the directions) is frozen, step 2 computes z, h and the
 directions once per crop and flip and trains the heads on those: 50 epochs cost seconds.
+
+Not in the paper — the diffuse-sphere term (sg.diffuse: a white Lambertian sphere seen from the
+camera, 16 x 16 pixels, lit by the lights and ambient through the SG map, after the radiance
+transform; what `parlight eval` scores, there against the real panorama): --w-d1 W adds
+W times it to step 1's loss; --step2-loss render replaces step 2's per-light terms by --w-d
+times it (plus the ambient term), --step2-loss both adds it to them. --step2-from CKPT runs only
+step 2, from a step-1 checkpoint (into its own --ckpt-dir).
 
 --init CKPT starts from another checkpoint's encoder (tools/train/distill.py: MobileNetV2
 features distilled into the DenseNet; the paper starts from ImageNet weights, which we lack).
@@ -69,7 +78,10 @@ MAX_GT = 16
 COS45 = math.cos(math.radians(45.0))
 # configuration keys that must match to resume a checkpoint
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
-               "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs")
+               "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
+               "step2_loss", "w_d", "w_d1")
+# what a checkpoint made before a key existed was trained with
+RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0}
 
 
 def log_line(path, text):
@@ -168,8 +180,9 @@ def radiance_tf(x, mode):
     return torch.log1p(x) if mode == "log" else x
 
 
-def step1_loss(out, gt, udirs, cfg):
-    """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform)."""
+def step1_loss(out, gt, udirs, cfg, render=None):
+    """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
+    w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper; render = (udirs, op))."""
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
                    prefilter_sigma=pf)
@@ -177,7 +190,13 @@ def step1_loss(out, gt, udirs, cfg):
     lr = F.mse_loss(radiance_tf(pm, cfg["radiance"]), radiance_tf(gm, cfg["radiance"]))
     la = F.mse_loss(radiance_tf(out["ambient"].float(), cfg["radiance"]),
                     radiance_tf(gt["ambient"], cfg["radiance"]))
-    return cfg["w_r"] * lr + cfg["w_a"] * la, {"map": float(lr), "amb": float(la)}
+    total = cfg["w_r"] * lr + cfg["w_a"] * la
+    parts = {"map": float(lr), "amb": float(la)}
+    if cfg.get("w_d1", 0.0) > 0:
+        ls = diffuse_loss(out, gt, render[0], render[1], cfg)
+        total = total + cfg["w_d1"] * ls
+        parts["sphere"] = float(ls)
+    return total, parts
 
 
 def match(pred_dir, gt):
@@ -189,8 +208,30 @@ def match(pred_dir, gt):
     return idx, best >= COS45
 
 
-def step2_loss(out, gt, cfg):
-    """Ambient L2 + sum over matched predicted lights of L2 on distance, size and colour."""
+def diffuse_loss(out, gt, udirs, op, cfg):
+    """L2 between the diffuse spheres (sg.diffuse, after the radiance transform) lit by the
+    predicted and by the ground-truth lights and ambient: the whole lighting's energy and its
+    low-frequency shape, which the per-light losses of step 2 do not see."""
+    pf = sg.pixel_sigma(cfg["map_width"])
+    pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
+                   ambient=out["ambient"].float(), prefilter_sigma=pf)
+    gm = sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, ambient=gt["ambient"],
+                   mask=gt["mask"], prefilter_sigma=pf)
+    return F.mse_loss(radiance_tf(sg.diffuse(pm, op), cfg["radiance"]),
+                      radiance_tf(sg.diffuse(gm, op), cfg["radiance"]))
+
+
+def step2_loss(out, gt, cfg, render=None):
+    """Ambient L2 + sum over matched predicted lights of L2 on distance, size and colour (the
+    paper's step 2, --step2-loss paper); with `render` = (udirs, op) and --step2-loss render or
+    both, w_d times diffuse_loss instead of (render) or beside (both) the per-light terms."""
+    mode = cfg.get("step2_loss", "paper")
+    ld_sphere = (cfg["w_d"] * diffuse_loss(out, gt, render[0], render[1], cfg)
+                 if mode != "paper" else torch.zeros(()))
+    if mode == "render":
+        la = F.mse_loss(radiance_tf(out["ambient"], cfg["radiance"]),
+                        radiance_tf(gt["ambient"], cfg["radiance"]))
+        return ld_sphere + la, {"amb": float(la), "sphere": float(ld_sphere)}
     idx, valid = match(out["dir"], gt)
     v = valid.float()
     g = lambda k: torch.gather(gt[k], 1, idx) if gt[k].dim() == 2 else torch.gather(  # noqa: E731
@@ -201,9 +242,12 @@ def step2_loss(out, gt, cfg):
           .mean(-1) * v).sum(1).mean()
     la = F.mse_loss(radiance_tf(out["ambient"], cfg["radiance"]),
                     radiance_tf(gt["ambient"], cfg["radiance"]))
-    total = la + ld + ls + lc
-    return total, {"amb": float(la), "dist": float(ld), "size": float(ls), "rgb": float(lc),
-                   "matched": float(v.mean())}
+    total = la + ld + ls + lc + ld_sphere
+    parts = {"amb": float(la), "dist": float(ld), "size": float(ls), "rgb": float(lc),
+             "matched": float(v.mean())}
+    if mode == "both":
+        parts["sphere"] = float(ld_sphere)
+    return total, parts
 
 
 # ---- checkpoints ------------------------------------------------------------------------------
@@ -256,7 +300,7 @@ def lr_at(cfg, epoch):
     return cfg["lr"] * 0.5 ** (epoch // cfg["halve_every"])
 
 
-def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32):
+def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32, render=None):
     if len(idx) == 0:
         return float("nan")
     model.eval()
@@ -268,12 +312,13 @@ def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32):
                 out = model(to_input(imgs[j]))
             out = {k: v.float() for k, v in out.items()}
             g = take(gt, j)
-            loss = step1_loss(out, g, udirs, cfg)[0] if phase == 1 else step2_loss(out, g, cfg)[0]
+            loss = (step1_loss(out, g, udirs, cfg, render)[0] if phase == 1
+                    else step2_loss(out, g, cfg, render)[0])
             tot += float(loss) * len(j)
     return tot / len(idx)
 
 
-def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
+def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=None):
     n_batches = len(tr) // cfg["batch"]
     if n_batches == 0:
         raise ValueError(f"{len(tr)} training crops: fewer than one batch of {cfg['batch']}")
@@ -293,7 +338,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
             u8, g = flip_batch(imgs[j], take(gt, j), flips[b * cfg["batch"]:(b + 1) * cfg["batch"]])
             with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
                 out = model(to_input(u8))
-            loss, parts = step1_loss(out, g, udirs, cfg)
+            loss, parts = step1_loss(out, g, udirs, cfg, render)
             if not torch.isfinite(loss):
                 raise RuntimeError(f"step 1 epoch {ep} batch {b}: loss is {float(loss)}")
             opt.zero_grad(set_to_none=True)
@@ -302,6 +347,8 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
             sums["loss"] += float(loss)
             sums["map"] += parts["map"]
             sums["amb"] += parts["amb"]
+            if "sphere" in parts:
+                sums["sphere"] = sums.get("sphere", 0.0) + parts["sphere"]
             sums["n"] += 1
             seen += len(j)
             state["batch"] = b + 1
@@ -319,9 +366,10 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
                          f"{seen / max(time.time() - t0, 1e-9):.2f} img/s")
         dt = time.time() - t0
         n = max(sums["n"], 1)
-        vl = evaluate(model, imgs, gt, va, udirs, cfg, 1)
+        vl = evaluate(model, imgs, gt, va, udirs, cfg, 1, render=render)
         log_line(paths["log"], f"step1 epoch {ep + 1}/{cfg['step1_epochs']} lr {lr_at(cfg, ep):.3g} "
-                 f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}) "
+                 f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}"
+                 + (f" sphere {sums['sphere'] / n:.6g}" if "sphere" in sums else "") + ") "
                  f"val {vl:.6g} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
                  + (" (resumed epoch: rate over its last part)" if resumed_at else ""))
         state.update(epoch=ep + 1, batch=0)
@@ -366,7 +414,7 @@ def heads(model, z, h, d):
             "ambient": F.softplus(model.head_ambient(h))}
 
 
-def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None):
+def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None, render=None):
     params = [p for name in STEP2_HEADS for p in getattr(model, name).parameters()]
     for p in model.parameters():
         p.requires_grad_(False)
@@ -397,7 +445,7 @@ def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None):
                                         ftr[1][k][j], ftr[0][k][j])
             g = flip_gt(take(gtr, j), fl)
             out = heads(model, sel("z"), sel("h"), sel("dir"))
-            loss, parts = step2_loss(out, g, cfg)
+            loss, parts = step2_loss(out, g, cfg, render)
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
@@ -406,7 +454,7 @@ def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None):
             n += 1
         with torch.no_grad():
             vl = float(step2_loss(heads(model, fva[0]["z"], fva[0]["h"], fva[0]["dir"]), gva,
-                                  cfg)[0]) if fva is not None else float("nan")
+                                  cfg, render)[0]) if fva is not None else float("nan")
         n = max(n, 1)
         log_line(paths["log"], f"step2 epoch {ep + 1}/{cfg['step2_epochs']} lr {lr_at(cfg, ep):.3g} "
                  + " ".join(f"{k} {v / n:.6g}" for k, v in sums.items()) + f" val {vl:.6g}")
@@ -435,6 +483,15 @@ def main(argv=None):
     ap.add_argument("--radiance", choices=("log", "linear"), default="log")
     ap.add_argument("--w-r", type=float, default=20.0)
     ap.add_argument("--w-a", type=float, default=1.0)
+    ap.add_argument("--step2-loss", choices=("paper", "render", "both"), default="paper",
+                    help="step 2's loss: the paper's per-light terms, the diffuse-sphere render "
+                    "term (w_d) with the ambient term, or both")
+    ap.add_argument("--w-d", type=float, default=1.0, help="weight of step 2's diffuse-sphere "
+                    "term")
+    ap.add_argument("--w-d1", type=float, default=0.0, help="weight of a diffuse-sphere term "
+                    "added to step 1's loss (0: the paper's step 1)")
+    ap.add_argument("--step2-from", metavar="CKPT", help="skip step 1: start step 2 from this "
+                    "checkpoint's network (a step1.pt of the same data and input size)")
     ap.add_argument("--val-panos", type=int, default=4)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
@@ -487,10 +544,12 @@ def main(argv=None):
                "step1_epochs": args.step1_epochs, "step2_epochs": args.step2_epochs,
                "map_width": args.map_width, "radiance": args.radiance, "w_r": args.w_r,
                "w_a": args.w_a, "val_panos": args.val_panos, "held_out": held,
+               "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
                "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None}
         udirs = sg.equirect_dirs(args.map_width)
+        render = (udirs, sg.diffuse_operator(args.map_width, sg.sphere_normals(16)))
 
         torch.manual_seed(args.seed)
         model = ParLightNet(args.n_lights, args.input)
@@ -500,7 +559,7 @@ def main(argv=None):
         if os.path.exists(paths["last"]):
             ck = load_ckpt(paths["last"])
             old = ck.get("config", {})
-            diff = [k for k in RESUME_KEYS if old.get(k) != cfg.get(k)]
+            diff = [k for k in RESUME_KEYS if old.get(k, RESUME_DEFAULTS.get(k)) != cfg.get(k)]
             if diff:
                 raise ValueError(f"{paths['last']}: made with another configuration ({', '.join(diff)} "
                                  f"differ); use another --ckpt-dir")
@@ -516,6 +575,20 @@ def main(argv=None):
             random.setstate(ck["rng"]["python"])
             log_line(args.log, f"resumed {paths['last']}: step {state['phase']} epoch "
                      f"{state['epoch']} batch {state['batch']}")
+        elif args.step2_from:
+            ck = load_ckpt(args.step2_from)
+            old = ck.get("config", {}) if isinstance(ck, dict) else {}
+            if "model" not in ck or old.get("input") != cfg["input"] or \
+                    old.get("n_lights") != cfg["n_lights"]:
+                raise ValueError(f"{args.step2_from}: not a train.py checkpoint of input "
+                                 f"{cfg['input']} with {cfg['n_lights']} lights")
+            model.load_state_dict(ck["model"])
+            cfg["init"] = old.get("init")
+            cfg["step2_from"] = os.path.abspath(args.step2_from)
+            state = {"phase": 2, "epoch": 0, "batch": 0, "steps": 0}
+            log_line(args.log, f"start step 2 from {args.step2_from} (its step 1: "
+                     f"{ck.get('state')}), config "
+                     f"{json.dumps({k: v for k, v in cfg.items() if k != 'held_out'})}")
         else:
             if args.init:
                 ck = load_ckpt(args.init)
@@ -530,11 +603,11 @@ def main(argv=None):
         log_line(args.log, f"loaded {len(imgs)} crops in {time.time() - t0:.0f} s")
 
         if state["phase"] == 1:
-            if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths):
+            if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render):
                 return 0
             state = {"phase": 2, "epoch": 0, "batch": 0, "steps": state.get("steps", 0)}
             save_ckpt(paths["last"], model, None, state, cfg)
-        train_step2(model, imgs, gt, tr, va, cfg, state, paths, step2_opt)
+        train_step2(model, imgs, gt, tr, va, cfg, state, paths, step2_opt, render)
         save_ckpt(paths["final"], model, None, state, cfg)
         log_line(args.log, f"done: {paths['final']}")
         if args.export:
