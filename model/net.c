@@ -793,7 +793,8 @@ int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, siz
     }
     int x0, y0, cw, ch;
     pl_crop_to_aspect(width, height, m->in_w, m->in_h, &x0, &y0, &cw, &ch);
-    pl_resize_area_rgb8_to_chw(rgb, stride, x0, y0, cw, ch, m->x_in, m->in_w, m->in_h);
+    pl_resize_job rj = {rgb, stride, x0, y0, cw, ch, m->x_in, m->in_w, m->in_h};
+    pl_pool_for(m->pool, m->in_h, pl_resize_job_rows, &rj);
     const size_t plane = (size_t)m->in_h * m->in_w;
     for (int c = 0; c < 3; c++) {
         const float a = 1.0f / (255.0f * m->std[c]), b = -m->mean[c] / m->std[c];

@@ -1052,7 +1052,8 @@ void pl_s8_estimate(pl_s8 *s, pl_pool *pool, const uint8_t *rgb, int width, int 
     int64_t pt = pl_prof_now(s->prof);
     int x0, y0, cw, ch;
     pl_crop_to_aspect(width, height, W, H, &x0, &y0, &cw, &ch);
-    pl_resize_area_rgb8_to_chw(rgb, stride, x0, y0, cw, ch, s->fin, W, H);
+    pl_resize_job rj = {rgb, stride, x0, y0, cw, ch, s->fin, W, H};
+    pl_pool_for(pool, H, pl_resize_job_rows, &rj);
     pl_pool_for(pool, PH, pad_input, s);
     *t_pre_end = pl_now_ns();
     pl_prof_mark(s->prof, PL_PROF_PRE, &pt);

@@ -109,6 +109,23 @@ void pl_crop_to_aspect(int w, int h, int aw, int ah, int *x0, int *y0, int *cw, 
  * dst_w, dst_h <= PL_IMAGE_MAX_SIDE, dst holds 3*dst_w*dst_h floats and does not overlap src. */
 void pl_resize_area_rgb8_to_chw(const uint8_t *src, size_t stride, int x0, int y0, int cw, int ch,
                                 float *dst, int dst_w, int dst_h);
+/* The same for output rows [row_begin, row_end) only, 0 <= row_begin <= row_end <= dst_h (the
+ * other rows of dst are not touched): every output row is computed the same way whatever the
+ * range, so a frame split over threads equals the whole call bit for bit. */
+void pl_resize_area_rgb8_to_chw_rows(const uint8_t *src, size_t stride, int x0, int y0, int cw,
+                                     int ch, float *dst, int dst_w, int dst_h, int row_begin,
+                                     int row_end);
+
+/* That call's arguments, for splitting it over port/threads.h's pl_pool_for:
+ * pl_pool_for(pool, dst_h, pl_resize_job_rows, &job). */
+typedef struct pl_resize_job {
+    const uint8_t *src;
+    size_t stride;
+    int x0, y0, cw, ch;
+    float *dst;
+    int dst_w, dst_h;
+} pl_resize_job;
+void pl_resize_job_rows(void *job, int row_begin, int row_end);
 
 /* Checks the arguments above for a source image of src_w x src_h (PL_E_ARG with a message). */
 int pl_resize_check(int src_w, int src_h, size_t stride, int x0, int y0, int cw, int ch, int dst_w,

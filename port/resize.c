@@ -98,7 +98,15 @@ enum { CHUNK = 256 };
 void pl_resize_area_rgb8_to_chw(const uint8_t *src, size_t stride, int x0, int y0, int cw, int ch,
                                 float *dst, int dst_w, int dst_h)
 {
+    pl_resize_area_rgb8_to_chw_rows(src, stride, x0, y0, cw, ch, dst, dst_w, dst_h, 0, dst_h);
+}
+
+void pl_resize_area_rgb8_to_chw_rows(const uint8_t *src, size_t stride, int x0, int y0, int cw,
+                                     int ch, float *dst, int dst_w, int dst_h, int row_begin,
+                                     int row_end)
+{
     assert(src && dst);
+    assert(0 <= row_begin && row_begin <= row_end && row_end <= dst_h);
     assert(x0 >= 0 && y0 >= 0 && cw >= 1 && ch >= 1 && dst_w >= 1 && dst_h >= 1);
     assert(cw <= PL_IMAGE_MAX_SIDE && ch <= PL_IMAGE_MAX_SIDE);
     assert(dst_w <= PL_IMAGE_MAX_SIDE && dst_h <= PL_IMAGE_MAX_SIDE);
@@ -115,7 +123,7 @@ void pl_resize_area_rgb8_to_chw(const uint8_t *src, size_t stride, int x0, int y
         const int n = dst_w - c0 < CHUNK ? dst_w - c0 : CHUNK;
         for (int i = 0; i < n; i++)
             xt[i] = axis_tap(cw, dst_w, c0 + i);
-        for (int oy = 0; oy < dst_h; oy++) {
+        for (int oy = row_begin; oy < row_end; oy++) {
             const tap yt = axis_tap(ch, dst_h, oy);
             for (int i = 0; i < 3 * n; i++)
                 acc[i] = 0;
@@ -154,4 +162,11 @@ void pl_resize_area_rgb8_to_chw(const uint8_t *src, size_t stride, int x0, int y
             }
         }
     }
+}
+
+void pl_resize_job_rows(void *job, int row_begin, int row_end)
+{
+    const pl_resize_job *j = job;
+    pl_resize_area_rgb8_to_chw_rows(j->src, j->stride, j->x0, j->y0, j->cw, j->ch, j->dst, j->dst_w,
+                                    j->dst_h, row_begin, row_end);
 }

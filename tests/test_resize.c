@@ -150,6 +150,41 @@ static void test_identity_exact(void)
           "2x2 means: %g %g | %g %g | %g %g", d[0], d[1], d[2], d[3], d[4], d[5]);
 }
 
+/* Output rows in pieces (as threads split a frame) equal the whole call bit for bit, and rows
+ * outside the range are left alone. */
+static void test_rows(void)
+{
+    const int sizes[][4] = {
+        {1440, 1080, 256, 192}, {37, 23, 128, 96}, {64, 48, 64, 48}, {9, 700, 5, 3}};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        const int cw = sizes[k][0], ch = sizes[k][1], dw = sizes[k][2], dh = sizes[k][3];
+        const size_t stride = (size_t)cw * 3 + 5, n = 3 * (size_t)dw * dh;
+        uint8_t *src = malloc(stride * (size_t)ch);
+        float *whole = malloc(sizeof(float) * n), *parts = malloc(sizeof(float) * n);
+        for (size_t i = 0; i < stride * (size_t)ch; i++)
+            src[i] = (uint8_t)rnd();
+        pl_resize_area_rgb8_to_chw(src, stride, 0, 0, cw, ch, whole, dw, dh);
+        for (size_t i = 0; i < n; i++)
+            parts[i] = -1.0f;
+        int r0 = 0, untouched = 1;
+        while (r0 < dh) {
+            const int step = 1 + (int)(rnd() % 7), r1 = r0 + step > dh ? dh : r0 + step;
+            pl_resize_area_rgb8_to_chw_rows(src, stride, 0, 0, cw, ch, parts, dw, dh, r0, r1);
+            for (int c = 0; c < 3; c++) /* the next row is still untouched */
+                for (int x = 0; r1 < dh && x < dw; x++)
+                    untouched &= parts[(size_t)c * dw * dh + (size_t)r1 * dw + x] == -1.0f;
+            r0 = r1;
+        }
+        pl_resize_area_rgb8_to_chw_rows(src, stride, 0, 0, cw, ch, parts, dw, dh, 1, 1);
+        CHECK(untouched, "%dx%d -> %dx%d: a row range wrote outside itself", cw, ch, dw, dh);
+        CHECK(memcmp(whole, parts, sizeof(float) * n) == 0,
+              "%dx%d -> %dx%d: rows in pieces differ from the whole", cw, ch, dw, dh);
+        free(src);
+        free(whole);
+        free(parts);
+    }
+}
+
 static void test_crop(void)
 {
     struct {
@@ -216,6 +251,7 @@ int main(void)
     test_random_area();
     test_bilinear_and_mixed();
     test_identity_exact();
+    test_rows();
     test_crop();
     test_check();
     test_speed();
