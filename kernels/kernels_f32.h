@@ -42,6 +42,8 @@
 typedef struct pl_f32_conv {
     nn_conv_params p;
     const float *w, *bias, *in_scale, *in_shift;
+    int wino; /* 0: `w` holds pl_f32_pack_weights' panels, run by `conv`; 2 or 4: Winograd
+               * F(wino x wino, 3x3), `w` holds pl_f32_wino_pack_weights' panels, run by `wino` */
 } pl_f32_conv;
 
 /* Output channels [panel_begin*MR, min(panel_end*MR, out_c)) of output pixels
@@ -59,10 +61,11 @@ typedef void (*pl_f32_fc_fn)(const float *in, int n_in, const float *w, const fl
 typedef struct pl_kernels_f32 {
     int packed;          /* 1: `conv` is filled and convolutions take packed weights */
     pl_f32_conv_fn conv; /* NULL on the reference path (nn_conv2d_f32__ref instead) */
+    pl_f32_conv_fn wino; /* Winograd 3x3 (see below); filled with `conv`, NULL without it */
     pl_f32_bn_relu_fn bn_relu;
     pl_f32_pool_fn maxpool, avgpool;
     pl_f32_fc_fn fc;
-    const char *conv_name, *bn_relu_name, *maxpool_name, *avgpool_name, *fc_name;
+    const char *conv_name, *wino_name, *bn_relu_name, *maxpool_name, *avgpool_name, *fc_name;
 } pl_kernels_f32;
 
 /* Fills every slot with the fastest implementation `isa` includes (kernels/isa.h). */
@@ -81,5 +84,43 @@ size_t pl_f32_packed_weights_floats(const nn_conv_params *p);
 void pl_f32_pack_weights(const nn_conv_params *p, const float *w, float *dst);
 /* Floats of scratch `conv` needs for `p` (a multiple of 16; at most (KC + 49) * NR). */
 size_t pl_f32_conv_scratch_floats(const nn_conv_params *p);
+
+/* Winograd F(m x m, 3x3), m = 2 or 4, for 3x3 convolutions with stride 1, padding 1 and the
+ * output the input's size (pl_f32_wino_fits), without the 1x1 pre-activation:
+ *
+ *   1. at load, pl_f32_wino_pack_weights computes U = G g G^T (T x T, T = m + 2; in double,
+ *      rounded once to float) for every (oc, ic) and packs it as T*T GEMM operands in the
+ *      `conv` layout: [T*T][panels][in_c][MR] (the last panel zero-padded);
+ *   2. per frame, `wino` takes the output in m x m tiles (tiles_y = ceil(out_h/m), tiles_x
+ *      likewise, counted row by row) and those in blocks of NR tiles; per block and per chunk of
+ *      PL_F32_WINO_KC input channels it builds V = B^T d B of every tile's (m+2) x (m+2) input
+ *      patch (padding and the parts past the map as zeros) straight into T*T B blocks of the
+ *      GEMM (KC x NR each), runs the T*T products M = U V with the path's micro-kernel (the
+ *      same `ukr` as `conv`, summing in input-channel order), then writes Y = A^T M A (+ bias,
+ *      ReLU) into the output planes, skipping the pixels of partial tiles past the map.
+ *
+ * `wino` has `conv`'s signature with "tiles" meaning blocks of NR Winograd tiles
+ * (pl_f32_wino_blocks). As with `conv`, every output's arithmetic is fixed by m and in_c only, so
+ * results do not depend on the block or panel split, nor on the thread count.
+ *
+ * Accuracy: y differs from the direct convolution by rounding in the transforms and the sum over
+ * channels. First-order bound (tests/test_kernels_simd_f32.c checks it per output):
+ *   |y - y_exact| <= gamma(in_c + 16) * (|bias| + W),
+ *   W = sum_ic [|A^T| ((|G||g||G^T|) o (|B^T||d||B|)) |A|] (o: elementwise),
+ * with gamma(n) = n u / (1 - n u), u = 2^-24: 16 covers the rounding of U, the two passes of
+ * each transform (at most 4 and 3 roundings each) and the bias. The bracket grows with m (F(4x4)'s
+ * transforms have entries up to 8 and 5): F(4x4) is the less accurate one (docs/PERFORMANCE.md). */
+#define PL_F32_WINO_KC 128 /* input channels per chunk of V */
+
+int pl_f32_wino_fits(const pl_f32_conv *c);
+/* The m the executor uses for `p`: 4, 2 or 0 (direct) from the number of tiles, or
+ * PARLIGHT_WINOGRAD=0|2|4 (0: never; 2, 4: that m for every fitting convolution; unset or
+ * "auto": by tiles). -1: PARLIGHT_WINOGRAD holds anything else (the caller reports it). */
+int pl_f32_wino_choose(const nn_conv_params *p);
+int pl_f32_wino_blocks(const nn_conv_params *p, int m);
+size_t pl_f32_wino_weights_floats(const nn_conv_params *p, int m);
+void pl_f32_wino_pack_weights(const nn_conv_params *p, int m, const float *w, float *dst);
+/* Floats of scratch `wino` needs for `p` and m (a multiple of 16). */
+size_t pl_f32_wino_scratch_floats(const nn_conv_params *p, int m);
 
 #endif

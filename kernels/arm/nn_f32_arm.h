@@ -14,6 +14,9 @@
 
 void nn_conv_gemm_f32_8x12__neon(const pl_f32_conv *c, const float *in, float *out, float *scratch,
                                  int tile_begin, int tile_end, int panel_begin, int panel_end);
+/* Winograd F(2x2 or 4x4, 3x3) on the same micro-kernel (kernels/nn_conv_wino_f32_tmpl.h) */
+void nn_conv_wino_f32_8x12__neon(const pl_f32_conv *c, const float *in, float *out, float *scratch,
+                                 int block_begin, int block_end, int panel_begin, int panel_end);
 void nn_fc_f32__neon(const float *in, int n_in, const float *w, const float *bias, int relu,
                      float *out, int o_begin, int o_end);
 void nn_maxpool2d_f32__neon(const nn_pool_params *p, const float *in, float *out, int c_begin,

@@ -81,3 +81,7 @@ static void gather_row(float *d, const float *x, const int32_t *tab, int ky, int
 
 #define CONV_GEMM_FN nn_conv_gemm_f32_8x48__avx512vnni
 #include "kernels/nn_conv_gemm_f32_tmpl.h"
+
+/* Winograd F(m x m, 3x3) on the same micro-kernel (kernels/nn_conv_wino_f32_tmpl.h) */
+#define CONV_WINO_FN nn_conv_wino_f32_8x48__avx512vnni
+#include "kernels/nn_conv_wino_f32_tmpl.h"

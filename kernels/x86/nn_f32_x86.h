@@ -13,6 +13,12 @@ void nn_conv_gemm_f32_4x24__avx2(const pl_f32_conv *c, const float *in, float *o
                                  float *scratch, int tile_begin, int tile_end, int panel_begin,
                                  int panel_end);
 
+/* Winograd F(2x2 or 4x4, 3x3) on the same micro-kernels (kernels/nn_conv_wino_f32_tmpl.h) */
+void nn_conv_wino_f32_8x48__avx512vnni(const pl_f32_conv *c, const float *in, float *out,
+                                       float *scratch, int block_begin, int block_end,
+                                       int panel_begin, int panel_end);
+void nn_conv_wino_f32_4x24__avx2(const pl_f32_conv *c, const float *in, float *out, float *scratch,
+                                 int block_begin, int block_end, int panel_begin, int panel_end);
 void nn_bn_relu_f32__avx512vnni(const float *in, const float *scale, const float *shift, int hw,
                                 float *out, int c_begin, int c_end);
 void nn_bn_relu_f32__avx2(const float *in, const float *scale, const float *shift, int hw,
