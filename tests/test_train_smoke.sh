@@ -103,4 +103,15 @@ EOF
 "${TR[@]}" --ckpt-dir "$TMP/ck4" --log "$TMP/log4" --step1-epochs 1 --step2-epochs 0 --w-d1 5 \
     >/dev/null || fail "--w-d1"
 grep -q "step1 epoch 1/1 .* sphere [0-9]" "$TMP/log4" || fail "no sphere term in $(cat "$TMP/log4")"
+# --init --init-all starts from the whole network (one step of lr 1e-12 later: the same weights)
+"${TR[@]}" --ckpt-dir "$TMP/ck5" --log "$TMP/log5" --init "$TMP/ck/final.pt" --init-all \
+    --lr 1e-12 --max-steps 1 >/dev/null || fail "--init-all"
+"$PY" - "$TMP/ck/final.pt" "$TMP/ck5/last.pt" <<'EOF' || fail "--init-all did not load the network"
+import sys, torch
+a, b = (torch.load(p, map_location="cpu")["model"] for p in sys.argv[1:3])
+keys = [k for k in a if "running" not in k and "num_batches" not in k]
+worst = max(float((a[k].float() - b[k].float()).abs().max()) for k in keys)
+assert worst < 1e-6 and any(k.startswith("head_rgb") for k in keys), worst
+print(f"--init-all: max |weight difference| after one step of lr 1e-12: {worst:.2g}")
+EOF
 echo "ok"

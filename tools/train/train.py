@@ -284,7 +284,8 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
             f"{cfg.get('data')} (index sha256 {str(cfg.get('data_index_sha256'))[:16]}), input "
             f"{cfg['input'][0]}x{cfg['input'][1]}, torch {torch.__version__}, exported "
             f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ}"
-            + (f", encoder initialised from {os.path.basename(cfg['init'])}" if cfg.get("init")
+            + (f", {'network' if cfg.get('init_all') else 'encoder'} initialised from "
+               f"{os.path.basename(cfg['init'])}" if cfg.get("init")
                else ", from scratch (no pretrained encoder)")
             + provenance_extra)
     tensors = export.checked_tensors(model)
@@ -502,6 +503,9 @@ def main(argv=None):
     ap.add_argument("--limit", type=int, default=0, help="only the first N crops of the index")
     ap.add_argument("--init", metavar="CKPT", help="start step 1 from the encoder (features.*) "
                     "of this checkpoint, e.g. tools/train/distill.py's (ignored on resume)")
+    ap.add_argument("--init-all", action="store_true", help="with --init: start from the whole "
+                    "network of CKPT (a train.py checkpoint: heads too), e.g. to go on training a "
+                    "finished run on new data")
     ap.add_argument("--export", metavar="OUT.plm", help="export the final model here")
     ap.add_argument("--export-only", nargs=2, metavar=("CKPT", "OUT.plm"))
     ap.add_argument("--force", action="store_true", help="replace an existing export")
@@ -547,7 +551,8 @@ def main(argv=None):
                "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
                "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "limit": args.limit, "torch": torch.__version__,
-               "init": os.path.abspath(args.init) if args.init else None}
+               "init": os.path.abspath(args.init) if args.init else None,
+               "init_all": bool(args.init and args.init_all)}
         udirs = sg.equirect_dirs(args.map_width)
         render = (udirs, sg.diffuse_operator(args.map_width, sg.sphere_normals(16)))
 
@@ -564,6 +569,7 @@ def main(argv=None):
                 raise ValueError(f"{paths['last']}: made with another configuration ({', '.join(diff)} "
                                  f"differ); use another --ckpt-dir")
             cfg["init"] = old.get("init")   # the run's starting point, whatever --init says now
+            cfg["init_all"] = old.get("init_all", False)
             model.load_state_dict(ck["model"])
             state = ck["state"]
             if state["phase"] == 1:
@@ -593,11 +599,18 @@ def main(argv=None):
             if args.init:
                 ck = load_ckpt(args.init)
                 sd = ck.get("model") if isinstance(ck, dict) else None
-                feats = {k[len("features."):]: v for k, v in (sd or {}).items()
-                         if k.startswith("features.")}
-                if not feats:
-                    raise ValueError(f"{args.init}: no features.* tensors in its 'model'")
-                model.features.load_state_dict(feats)
+                if args.init_all:
+                    try:
+                        model.load_state_dict(sd or {})
+                    except RuntimeError as e:
+                        raise ValueError(f"{args.init}: not a network of this configuration "
+                                         f"({str(e).splitlines()[0]})") from None
+                else:
+                    feats = {k[len("features."):]: v for k, v in (sd or {}).items()
+                             if k.startswith("features.")}
+                    if not feats:
+                        raise ValueError(f"{args.init}: no features.* tensors in its 'model'")
+                    model.features.load_state_dict(feats)
             log_line(args.log, f"start: {len(tr)} train + {len(va)} val crops (held out {held}), "
                      f"config {json.dumps({k: v for k, v in cfg.items() if k != 'held_out'})}")
         log_line(args.log, f"loaded {len(imgs)} crops in {time.time() - t0:.0f} s")
