@@ -33,7 +33,10 @@
 
 #define PL_F32_MR 8  /* output channels per packed weight panel */
 #define PL_F32_NR 48 /* output pixels per tile */
-#define PL_F32_KC 192 /* rows of K per block of B: KC x NR floats are 36 KiB, within L1 */
+/* rows of K per block of B: KC x NR floats are 72 KiB, from L2. Measured (docs/PERFORMANCE.md):
+ * 384 ran the seeded 192x256 frame ~0.5 ms faster than 192 (within L1 of some cores), 512 and
+ * 1024 as 384; results do not depend on it (each chunk goes on from the stored sums exactly). */
+#define PL_F32_KC 384
 
 /* A convolution prepared for the packed path. `p` is the reference kernel's description
  * (kernels/ref/nn_ref.h; p.relu applies to the output). `w` holds pl_f32_pack_weights' panels;

@@ -64,6 +64,22 @@ typedef float wino_v8 __attribute__((vector_size(32)));
         memcpy((p), &wino_tmp8_, sizeof(wino_v8));                                                 \
     } while (0)
 
+/* *v = columns [a, a + 8) of the row xr (w columns), zeros outside it. */
+static inline __attribute__((always_inline)) void wino_cols8(wino_v8 *v, const float *xr, int a,
+                                                             int w)
+{
+    if (a >= 0 && a + 8 <= w) {
+        WINO_LD8(*v, xr + a);
+    } else if (a + 8 <= 0 || a >= w) {
+        *v = (wino_v8){0};
+    } else {
+        float t[8];
+        for (int i = 0; i < 8; i++)
+            t[i] = a + i >= 0 && a + i < w ? xr[a + i] : 0.0f;
+        memcpy(v, t, sizeof t);
+    }
+}
+
 /* 1-D input transform B^T s of T rows of NR (at stride ss) into T rows (at stride os). */
 static inline __attribute__((always_inline)) void wino_bt(int m, const float *s, size_t ss,
                                                           float *o, size_t os)
@@ -118,7 +134,7 @@ static inline __attribute__((always_inline)) void wino_at(int m, const float *s,
 }
 
 /* V rows for one input channel plane x: v[xi * vs + j] = (B^T d_j B)[xi] for the block's tiles;
- * `t1` (T*T x NR) and `seg` (m*NR + 2 floats) are work space. */
+ * `t1` (T*T x NR) and `seg` (m*NR + 8 floats) are work space. */
 static inline __attribute__((always_inline)) void wino_input(int m, const float *x, int h, int w,
                                                              const struct wino_run *runs,
                                                              int n_runs, int cols, float *t1,
@@ -136,15 +152,20 @@ static inline __attribute__((always_inline)) void wino_input(int m, const float 
                 continue;
             }
             /* the run's input columns [ix0, ix0 + m n + 2) into seg, zeros outside the map, so
-             * that the strided reads below need no bounds */
+             * that the strided reads below need no bounds; written as whole 8-float vectors,
+             * seg[8c .. 8c + 8) = (u_{c-1}[7], u_c[0..6]) with u_c the columns from
+             * ix0 + 1 + 8c: each 8-lane load below then reads back exactly one earlier store
+             * (store-to-load forwarding; memcpy's stores, placed otherwise, made them wait) */
             const int ix0 = R->tx0 * m - 1, len = m * n + 2;
-            const int lo = ix0 < 0 ? -ix0 : 0, hi = w - ix0 < len ? w - ix0 : len;
-            const float *xr = x + (size_t)iy * (size_t)w + ix0;
-            for (int i = 0; i < lo; i++)
-                seg[i] = 0.0f;
-            memcpy(seg + lo, xr + lo, (size_t)(hi - lo) * sizeof(float));
-            for (int i = hi; i < len; i++)
-                seg[i] = 0.0f;
+            const float *xr = x + (size_t)iy * (size_t)w;
+            wino_v8 up, uc;
+            wino_cols8(&up, xr, ix0 + 1 - 8, w);
+            for (int c = 0; 8 * c < len; c++) {
+                wino_cols8(&uc, xr, ix0 + 1 + 8 * c, w);
+                WINO_ST8(seg + 8 * c,
+                         __builtin_shufflevector(up, uc, 7, 8, 9, 10, 11, 12, 13, 14));
+                up = uc;
+            }
             /* B^T along the row, tile by tile, straight from seg: t1[k][r] */
             float *restrict o = t1 + (size_t)r * WNR + R->j0;
             const size_t os = (size_t)T * WNR;

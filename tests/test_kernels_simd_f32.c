@@ -10,8 +10,8 @@
  *    the work done in random pieces of tiles and panels, in random order, must equal the whole
  *    bit for bit (the summation order depends on K only);
  *    tolerance per output: |simd - ref| <= 1e-5 * (|bias| + sum |w * x|) + 1e-30;
- *  - bn_relu, maxpool2d (k 1..4, strides, padding) and avgpool2d: bit for bit (the same
- *    operations in the same order per output);
+ *  - bn_relu, maxpool2d (k 1..4, strides, padding; and 3x3/2) and avgpool2d (and 2x2/2): bit
+ *    for bit (the same operations in the same order per output);
  *  - fc: the same relative tolerance, n_in with every remainder mod 32 and the network's sizes;
  *  - Winograd F(2x2, 3x3) and F(4x4, 3x3) (`wino`) against the direct 3x3 convolution summed in
  *    double: random shapes (maps up to 31x37 with partial tiles, every map from 1x1 to 7x9, in_c
@@ -509,12 +509,13 @@ static void bn_relu_case(const pl_kernels_f32 *t, const char *isa)
     free(got);
 }
 
-static void pool_case(const pl_kernels_f32 *t, const char *isa, int avg)
+/* k, stride: 0 picks at random (the fast paths: 3x3/2 max, 2x2/2 average) */
+static void pool_case(const pl_kernels_f32 *t, const char *isa, int avg, int k, int stride)
 {
     nn_pool_params p;
     p.c = rint_in(1, 9);
-    p.k = rint_in(1, 4);
-    p.stride = rint_in(1, 3);
+    p.k = k ? k : rint_in(1, 4);
+    p.stride = stride ? stride : rint_in(1, 3);
     p.pad = avg ? 0 : rint_in(0, p.k / 2); /* PyTorch's limit */
     p.in_h = rint_in(p.k, 30);
     p.in_w = rint_in(p.k, 70);
@@ -601,8 +602,10 @@ int main(void)
             if ((e = fc_case(&k.f32, isa, n_in, rint_in(1, 13), rint_in(0, 1))) > worst) worst = e;
         for (int iter = 0; iter < 100; iter++) {
             bn_relu_case(&k.f32, isa);
-            pool_case(&k.f32, isa, 0);
-            pool_case(&k.f32, isa, 1);
+            pool_case(&k.f32, isa, 0, 0, 0);
+            pool_case(&k.f32, isa, 1, 0, 0);
+            pool_case(&k.f32, isa, 0, 3, 2);
+            pool_case(&k.f32, isa, 1, 2, 2);
         }
         if ((e = network_shapes(&k.f32, isa)) > worst) worst = e;
         wino_cases(&k.f32, isa);
