@@ -28,33 +28,11 @@
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
 #include "port/util.h"
+#define CHECK_RNG_SEED 0x2545f4914f6cdd1dULL
+#include "tests/check.h"
 
 #define TOL 1e-5
 
-static int failures;
-#define CHECK(cond, ...)                                                                           \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            if (failures++ < 20) {                                                                 \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__);                                        \
-                printf(__VA_ARGS__);                                                               \
-                printf("\n");                                                                      \
-            }                                                                                      \
-        }                                                                                          \
-    } while (0)
-
-static uint64_t rng = 0x2545f4914f6cdd1dULL;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (uint32_t)(rng >> 16);
-}
-static int rint_in(int lo, int hi)
-{
-    return lo + (int)(rnd() % (uint32_t)(hi - lo + 1));
-}
 static float rfloat(void) /* [-1, 1) */
 {
     return (float)rnd() / 2147483648.0f - 1.0f;
