@@ -2,6 +2,7 @@
  * weight packers (run once at load, so plain C). */
 #include "kernels/kernels_s8.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #if defined(__x86_64__)
@@ -107,6 +108,7 @@ static void fold_bias(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
     const size_t per_oc = (size_t)c->k_h * (size_t)c->k_w * (size_t)c->in_c;
     const int nb = blocks_of(c->out_c), np = nb * PL_S8_OCB;
     c->any_left_shift = 0;
+    c->short_requant = c->act_min == -128 && c->act_max == 127;
     for (int o = 0; o < np; o++) {
         if (o >= c->out_c) {
             for (int r = 0; r < 6; r++)
@@ -121,9 +123,15 @@ static void fold_bias(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
         dst[4 * np + o] = mask;
         dst[5 * np + o] = mask >> 1;
         if (sh > 0) c->any_left_shift = 1;
-        int64_t sum = 0;
-        for (size_t i = 0; i < per_oc; i++)
-            sum += weights[(size_t)o * per_oc + i];
+        int64_t sum = 0, sum_abs = 0;
+        for (size_t i = 0; i < per_oc; i++) {
+            const int8_t wi = weights[(size_t)o * per_oc + i];
+            sum += wi;
+            sum_abs += wi < 0 ? -wi : wi;
+        }
+        /* |x + input_offset| <= 255 for every s8 x and input_offset in [-127, 128] */
+        const int64_t bound = (bias ? llabs((int64_t)bias[o]) : 0) + 255 * sum_abs;
+        if (sh > 0 || bound >= (int64_t)1 << 30) c->short_requant = 0;
         const uint32_t corr =
             (uint32_t)((int64_t)(c->input_offset - (signed_a ? 0 : 128)) * sum);
         dst[o] = (int32_t)((bias ? (uint32_t)bias[o] : 0u) + corr);

@@ -80,6 +80,11 @@ typedef struct pl_s8_conv {
                                       with zeros to whole blocks */
     int any_left_shift;            /* (pack) some shift > 0: the kernels' slower requantisation
                                       with the saturating left shift */
+    int short_requant;             /* (pack) no shift > 0, act_min = -128, act_max = 127 and
+                                      every output channel's accumulator bounded, |bias| +
+                                      255 * sum|w| < 2^30: the AVX-512 kernel's shorter
+                                      requantisation (kernels/x86/nn_conv_packed_s8_tmpl.h),
+                                      same results */
 } pl_s8_conv;
 
 /* a_pack: A pixel p (output order over out_dims {n, h, w}) = input pixel

@@ -3,9 +3,9 @@
  * run `reps` times and the median kept. Not a test (tests/run.sh runs only test_*): a tool for
  * docs/PERFORMANCE.md, "Kernels and dispatch".
  *
- *   PARLIGHT_ISA=avx512vnni build/tests/bench_simd_s8 [reps] [H W]
+ *   PARLIGHT_ISA=avx512vnni build/tests/bench_simd_s8 [-v] [reps] [H W]
  *
- * Prints, per layer type: layers, MMAC, the median ms summed over the layers (A building and
+ * Prints (-v: first one line per layer), per layer type: layers, MMAC, the median ms summed over the layers (A building and
  * convolution separately) and GMAC/s of the convolution. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -49,6 +49,7 @@ static const char *const tname[T_COUNT] = {"stem conv0 7x7/2 3->64", "maxpool 3x
 static double t_a[T_COUNT], t_run[T_COUNT], mmac[T_COUNT];
 static int count[T_COUNT];
 static int reps = 50;
+static int verbose; /* -v: one line per layer */
 
 /* One conv: build A (a_pad when kxk, a_pack with clamp when clamp, avgpool when pool) and run. */
 static void bench_conv(const pl_kernels_s8 *K, int type, int n_in_h, int n_in_w, int in_c,
@@ -105,6 +106,11 @@ static void bench_conv(const pl_kernels_s8 *K, int type, int n_in_h, int n_in_w,
     }
     qsort(ta, (size_t)reps, sizeof *ta, cmp_i64);
     qsort(tr, (size_t)reps, sizeof *tr, cmp_i64);
+    if (verbose)
+        printf("  %-26s %4d -> %4d  %3d x %3d  A %7.3f ms  conv %7.3f ms  %6.1f GMAC/s\n",
+               tname[type], in_c, out_c, oh, ow, (double)ta[reps / 2] / 1e6,
+               (double)tr[reps / 2] / 1e6,
+               (double)oh * ow * out_c * k * k * in_c / (double)tr[reps / 2]);
     t_a[type] += (double)ta[reps / 2] / 1e6;
     t_run[type] += (double)tr[reps / 2] / 1e6;
     mmac[type] += (double)oh * ow * out_c * k * k * in_c / 1e6;
@@ -126,13 +132,18 @@ static void bench_conv(const pl_kernels_s8 *K, int type, int n_in_h, int n_in_w,
 int main(int argc, char **argv)
 {
     int H = 192, W = 256;
+    if (argc > 1 && strcmp(argv[1], "-v") == 0) {
+        verbose = 1;
+        argc--;
+        argv++;
+    }
     if (argc > 1) reps = atoi(argv[1]);
     if (argc > 3) {
         H = atoi(argv[2]);
         W = atoi(argv[3]);
     }
     if (reps < 1 || H < 32 || W < 32 || H % 32 || W % 32) {
-        fprintf(stderr, "usage: bench_simd_s8 [reps >= 1] [H W, multiples of 32]\n");
+        fprintf(stderr, "usage: bench_simd_s8 [-v] [reps >= 1] [H W, multiples of 32]\n");
         return 2;
     }
     const pl_kernels *k;

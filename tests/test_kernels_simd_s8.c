@@ -67,6 +67,35 @@ static void random_quant(int n, int32_t *mult, int32_t *shift, int32_t *bias)
     }
 }
 
+/* Half of the cases: what the shorter AVX-512 requantisation takes (pl_s8_conv.short_requant: no
+ * left shift, the full activation range, |bias| + 255 * sum|w| < 2^30): shifts in [-31, 0] (0,
+ * -1 and -31 often), multipliers as random_quant's; the biases of some channels at the bound's
+ * edge, 2^30 - 1 - 255 * sum|w| (still short), in a quarter of the cases one channel's one
+ * more (the general path), either sign; the others in [-2^20, 2^20].
+ * n_short counts the packed convolutions that qualified (pl_s8_conv.short_requant), n_long the
+ * others. */
+static int n_short, n_long;
+static void short_quant(int out_c, int per_oc, const int8_t *w, int32_t *shift, int32_t *bias,
+                        int32_t *act_min, int32_t *act_max)
+{
+    *act_min = -128;
+    *act_max = 127;
+    const int over = rnd() % 4 == 0 ? rint_in(0, out_c - 1) : -1; /* this channel one over */
+    for (int o = 0; o < out_c; o++) {
+        const uint32_t r = rnd() % 8;
+        shift[o] = r == 0 ? 0 : r == 1 ? -1 : r == 2 ? -31 : rint_in(-20, 0);
+        int64_t sa = 0;
+        for (int i = 0; i < per_oc; i++)
+            sa += w[(size_t)o * (size_t)per_oc + (size_t)i] < 0
+                      ? -w[(size_t)o * (size_t)per_oc + (size_t)i]
+                      : w[(size_t)o * (size_t)per_oc + (size_t)i];
+        const int64_t edge = ((int64_t)1 << 30) - 1 - 255 * sa + (o == over);
+        bias[o] = rint_in(-(1 << 20), 1 << 20);
+        if ((o == over || rnd() % 4 == 0) && edge > 0)
+            bias[o] = (int32_t)(rnd() % 2 ? edge : -edge);
+    }
+}
+
 static void random_act(int32_t *act_min, int32_t *act_max)
 {
     *act_min = rnd() % 2 ? -128 : rint_in(-128, 0);
@@ -146,6 +175,10 @@ static void run_simd(const pl_kernels_s8 *K, const tcase *t, int8_t *out, int pi
                     dense ? PL_S8_A_PACK : t->rows ? PL_S8_A_ROWS : PL_S8_A_PAD);
     void *mem = xmalloc(pl_s8_conv_packed_size(&c, K->layout));
     K->pack(&c, t->w, t->bias, mem);
+    if (c.short_requant)
+        n_short++;
+    else
+        n_long++;
     c.out_pitch = pitch;
     c.out_xor = xr;
     uint8_t *a = xmalloc(pl_s8_conv_a_size(&c));
@@ -322,6 +355,11 @@ static void test_case(const pl_kernels_s8 *K, const char *isa, kind k, int iter,
             mult[o] = mult[0];
             shift[o] = shift[0];
         }
+    }
+    if (iter % 2) {
+        short_quant(out_c, kh * kw * in_c, w, shift, bias, &p->act_min, &p->act_max);
+        t.fp.act_min = p->act_min;
+        t.fp.act_max = p->act_max;
     }
     t.q = (nn_per_channel_quant){mult, shift};
     t.x = x;
@@ -515,6 +553,12 @@ int main(void)
         for (int iter = 0; iter < 200; iter++)
             test_pools(&k.s8, isa, iter);
         test_network_shapes(&k.s8, isa);
+        CHECK(n_short > 300 && n_long > 300,
+              "%s: %d convolutions qualified for the short requantisation, %d did not: both "
+              "should be well covered", isa, n_short, n_long);
+        printf("path %s: %d convolutions qualified for the short requantisation (AVX-512 runs "
+               "it), %d did not\n", isa, n_short, n_long);
+        n_short = n_long = 0;
         printf("path %s: %s (%s, %s, %s)\n", isa, failures == before ? "ok" : "FAILED",
                k.s8.run_name, k.s8.a_pack_name, k.s8.a_pad_name);
         ran++;

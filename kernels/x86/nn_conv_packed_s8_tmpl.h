@@ -81,6 +81,32 @@ INLINE __m512i requant(const int left, __m512i acc, __m512i mult, __m512i lsh, _
     /* lo, hi: the activation range minus the offset; off: the offset (+ 128 for out_xor 0x80) */
     return _mm512_add_epi32(_mm512_max_epi32(_mm512_min_epi32(res, hi), lo), off);
 }
+
+/* The shorter requantisation (pl_s8_conv.short_requant: no left shift, |acc| < 2^30, the
+ * activation range all of [-128, 127]), in fewer operations on the shift and shuffle pipes:
+ * - high = floor((acc*mult + 2^30) / 2^31) = floor((2acc*mult + 2^31) / 2^32) is the high dword
+ *   of each 64-bit product of 2acc (no overflow: |acc| < 2^30), so one masked vpshufd gathers
+ *   the even lanes' next to the odd lanes';
+ * - the rounding divide by 2^e, (high >> e) + (rem > (mask >> 1) + (high < 0)), is
+ *   floor((high + 2^(e-1) - (high < 0)) / 2^e) for e >= 1 (high = (high >> e) * 2^e + rem;
+ *   |high| <= |acc| < 2^30 and 2^(e-1) <= 2^30, so the sum fits); e = 0 lanes have hp = 0 and
+ *   no kpos bit, so res = high.
+ * The caller narrows with saturation. */
+INLINE __m512i requant_short(__m512i acc, __m512i mult, __m512i mult_odd, __m512i rsh,
+                             __m512i hp, __mmask16 kpos)
+{
+    const __m512i nudge = _mm512_set1_epi64((int64_t)1 << 31);
+    const __m512i x2 = _mm512_add_epi32(acc, acc);
+    const __m512i ev = _mm512_add_epi64(_mm512_mul_epi32(x2, mult), nudge);
+    const __m512i od =
+        _mm512_add_epi64(_mm512_mul_epi32(_mm512_shuffle_epi32(x2, _MM_PERM_DDBB), mult_odd),
+                         nudge);
+    const __m512i high = _mm512_mask_shuffle_epi32(od, 0x5555, ev, _MM_PERM_DDBB);
+    const __mmask16 kneg = _mm512_mask_cmplt_epi32_mask(kpos, high, _mm512_setzero_si512());
+    __m512i t = _mm512_add_epi32(high, hp);
+    t = _mm512_mask_sub_epi32(t, kneg, t, _mm512_set1_epi32(1));
+    return _mm512_srav_epi32(t, rsh);
+}
 #else
 INLINE __m256i requant(const int left, __m256i acc, __m256i mult, __m256i lsh, __m256i rsh,
                        __m256i mask, __m256i half, __m256i off, __m256i lo, __m256i hi)
@@ -141,6 +167,7 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
             const uint8_t *ap =
                 a0 + ((size_t)ky * (size_t)c->dilation_h * (size_t)c->a_w +
                       (size_t)kx * (size_t)c->dilation_w) * (size_t)c->cs;
+#pragma GCC unroll 2
             for (int g = 0; g < gpt; g++, wg += GROUP_BYTES, ap += 4) {
 #if defined(NN_T_AVX512VNNI)
                 const __m512i w0 = _mm512_loadu_si512(wg);
@@ -191,6 +218,49 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
                   hi = _mm512_set1_epi32(c->act_max - c->output_offset);
     const __m128i xr = _mm_set1_epi8((char)(c->out_xor & 0x7f));
     const int any_xor = (c->out_xor & 0x7f) != 0;
+    if (nv == 2 && c->short_requant && !any_xor) {
+        /* two pixels x 32 channels at a time: requant_short, then vpackssdw (saturating to
+         * s16), the offset added with s16 saturation, vpacksswb / vpackuswb (u8 out: the offset
+         * + 128) and one vpermd to put each pixel's 32 bytes in order. The saturations clamp to
+         * [-128, 127] (or [0, 255]) exactly as the activation range does: |offset| <= 255, so a
+         * value saturated to s16 stays out of the byte range on the same side. */
+        const __m512i one = _mm512_set1_epi32(1), zero = _mm512_setzero_si512();
+        const __m512i mult0 = _mm512_loadu_si512(qv + nbp),
+                      mult1 = _mm512_loadu_si512(qv + 16 + nbp);
+        const __m512i mo0 = _mm512_shuffle_epi32(mult0, _MM_PERM_DDBB),
+                      mo1 = _mm512_shuffle_epi32(mult1, _MM_PERM_DDBB);
+        const __m512i rsh0 = _mm512_loadu_si512(qv + 3 * nbp),
+                      rsh1 = _mm512_loadu_si512(qv + 16 + 3 * nbp);
+        const __mmask16 kp0 = _mm512_cmpgt_epi32_mask(rsh0, zero),
+                        kp1 = _mm512_cmpgt_epi32_mask(rsh1, zero);
+        const __m512i hp0 = _mm512_maskz_add_epi32(kp0, _mm512_loadu_si512(qv + 5 * nbp), one),
+                      hp1 = _mm512_maskz_add_epi32(kp1, _mm512_loadu_si512(qv + 16 + 5 * nbp),
+                                                   one);
+        const int u8out = c->out_xor != 0;
+        const __m512i off16 =
+            _mm512_set1_epi16((short)(c->output_offset + (u8out ? 128 : 0)));
+        const __m512i perm =
+            _mm512_setr_epi32(0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15);
+        const __mmask32 km = (__mmask32)((ce >= 32 ? ~0u : (1u << ce) - 1u) & ~((1u << cb) - 1u));
+#pragma GCC unroll 7
+        for (int m = 0; m < mr; m += 2) {
+            const int m1 = m + 1 < mr ? m + 1 : m;
+            const __m512i p0 = _mm512_adds_epi16(
+                _mm512_packs_epi32(requant_short(acc[m][0], mult0, mo0, rsh0, hp0, kp0),
+                                   requant_short(acc[m][1], mult1, mo1, rsh1, hp1, kp1)),
+                off16);
+            const __m512i p1 = _mm512_adds_epi16(
+                _mm512_packs_epi32(requant_short(acc[m1][0], mult0, mo0, rsh0, hp0, kp0),
+                                   requant_short(acc[m1][1], mult1, mo1, rsh1, hp1, kp1)),
+                off16);
+            const __m512i b = _mm512_permutexvar_epi32(
+                perm, u8out ? _mm512_packus_epi16(p0, p1) : _mm512_packs_epi16(p0, p1));
+            _mm256_mask_storeu_epi8(out[m] + c0, km, _mm512_castsi512_si256(b));
+            if (m + 1 < mr)
+                _mm256_mask_storeu_epi8(out[m1] + c0, km, _mm512_extracti64x4_epi64(b, 1));
+        }
+        return;
+    }
     for (int v = 0; v < nv; v++) {
         const int32_t *q = qv + 16 * v;
         const __m512i mult = _mm512_loadu_si512(q + nbp), lsh = _mm512_loadu_si512(q + 2 * nbp),
