@@ -527,6 +527,10 @@ def main(argv=None):
                             ("--map-width", args.map_width, 8)):
             if v < lo:
                 raise ValueError(f"{name} {v}: expected >= {lo}")
+        if args.init_all and not args.init:
+            raise ValueError("--init-all: needs --init CKPT")
+        if args.step2_from and args.init:
+            raise ValueError("--step2-from and --init: give one starting point")
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
         if not (args.lr > 0 and math.isfinite(args.lr)):
