@@ -193,7 +193,7 @@ def step1_loss(out, gt, udirs, cfg, render=None):
     total = cfg["w_r"] * lr + cfg["w_a"] * la
     parts = {"map": float(lr), "amb": float(la)}
     if cfg.get("w_d1", 0.0) > 0:
-        ls = diffuse_loss(out, gt, render[0], render[1], cfg)
+        ls = sphere_l2(pm, out["ambient"].float(), gm, gt["ambient"], render[1], cfg)
         total = total + cfg["w_d1"] * ls
         parts["sphere"] = float(ls)
     return total, parts
@@ -208,17 +208,22 @@ def match(pred_dir, gt):
     return idx, best >= COS45
 
 
-def diffuse_loss(out, gt, udirs, op, cfg):
+def sphere_l2(pm, pamb, gm, gamb, op, cfg):
     """L2 between the diffuse spheres (sg.diffuse, after the radiance transform) lit by the
-    predicted and by the ground-truth lights and ambient: the whole lighting's energy and its
-    low-frequency shape, which the per-light losses of step 2 do not see."""
+    predicted and the ground-truth maps of lights pm, gm plus their ambients: the whole
+    lighting's energy and its low-frequency shape, which the per-light losses of step 2 do not
+    see. op's weights sum to 1 per normal, so an ambient adds itself to every sphere pixel."""
+    return F.mse_loss(radiance_tf(sg.diffuse(pm, op) + pamb[:, None, :], cfg["radiance"]),
+                      radiance_tf(sg.diffuse(gm, op) + gamb[:, None, :], cfg["radiance"]))
+
+
+def diffuse_loss(out, gt, udirs, op, cfg):
+    """sphere_l2 of the predicted and ground-truth lightings (rendering their maps first)."""
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
-                   ambient=out["ambient"].float(), prefilter_sigma=pf)
-    gm = sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, ambient=gt["ambient"],
-                   mask=gt["mask"], prefilter_sigma=pf)
-    return F.mse_loss(radiance_tf(sg.diffuse(pm, op), cfg["radiance"]),
-                      radiance_tf(sg.diffuse(gm, op), cfg["radiance"]))
+                   prefilter_sigma=pf)
+    gm = sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, mask=gt["mask"], prefilter_sigma=pf)
+    return sphere_l2(pm, out["ambient"].float(), gm, gt["ambient"], op, cfg)
 
 
 def step2_loss(out, gt, cfg, render=None):
