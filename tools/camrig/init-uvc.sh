@@ -109,6 +109,27 @@ step() {
     emit "@@END $name $rc"
 }
 
+# The same, but run once more when the first run ended with the driver choosing another format
+# than the one asked for: the gadget's known race (uvc-gadget.c, SET_CUR overtaken: the host's
+# PROBE data is lost and the device answers with its previous format). parlight's error there is
+# right; the second run's output is the step's, with a note of the retry on its stderr.
+step_format_retry() {
+    name=$1
+    shift
+    emit "@@BEGIN $name"
+    timeout 150 "$@" >/tmp/out 2>/tmp/err
+    rc=$?
+    if [ $rc != 0 ] && grep -q 'the driver set' /tmp/err; then
+        first=$(cat /tmp/err)
+        timeout 150 "$@" >/tmp/out 2>/tmp/err
+        rc=$?
+        echo "(retried once: the first run said: $first)" >>/tmp/err
+    fi
+    sed 's/^/O /' /tmp/out >$OUT
+    sed 's/^/E /' /tmp/err >$OUT
+    emit "@@END $name $rc"
+}
+
 step cameras $P cameras
 # the device's one frame size, and whether it offers MJPEG (all its files are JPEGs)
 size=$(grep -o '[0-9]*x[0-9]* @' /tmp/out | head -n 1 | cut -d' ' -f1)
@@ -116,12 +137,12 @@ mjpeg=$(grep -c 'MJPG' /tmp/out)
 status=0
 # --smooth 1: no temporal filter, so each JSON line is that frame's own estimate
 if [ "$backend" = v4l2 ] || [ "$backend" = both ]; then
-    step estimate-v4l2 $P estimate --model $M --camera v4l2:/dev/video0 --n-frames "$frames" \
+    step_format_retry estimate-v4l2 $P estimate --model $M --camera v4l2:/dev/video0 --n-frames "$frames" \
         --threads "$threads" --smooth 1
     [ $rc = 0 ] || status=$rc
     # MJPEG: the device sends the JPEG files' own bytes
     if [ "$mjpeg" -gt 0 ]; then
-        step estimate-v4l2-mjpeg $P estimate --model $M --camera v4l2:/dev/video0:$size:mjpeg \
+        step_format_retry estimate-v4l2-mjpeg $P estimate --model $M --camera v4l2:/dev/video0:$size:mjpeg \
             --n-frames "$frames" --threads "$threads" --smooth 1
         [ $rc = 0 ] || status=$rc
     fi
