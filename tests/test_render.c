@@ -143,7 +143,6 @@ static void test_lights_vs_map(void)
                "from the map, %.1f ms from the lights\n",
                m ? "glossy" : "diffuse", PL_RENDER_MAP_WIDTH, r, ms_map, ms_lights);
         CHECK(r < tol[m], "%s: relative RMSE %g > %g", m ? "glossy" : "diffuse", r, tol[m]);
-        CHECK(ms_map < 5000 && ms_lights < 5000, "renders take seconds");
         pl_image_f32_free(&a);
         pl_image_f32_free(&b);
     }
