@@ -35,6 +35,7 @@ static void usage(FILE *f)
             "lit by the panorama in the crop's camera frame on the crop's scale:\n"
             "  rmse, si_rmse  render RMSE and scale-invariant RMSE (diffuse sphere, S px)\n"
             "  angle          degrees between the primary light and the ground truth's\n"
+            "  scale EV       log2 of si_rmse's scale: stops the render must be brightened by\n"
             "Prints the median and quartiles over all crops per method (docs/EVAL.md).\n"
             "Files that are not panoramas are reported on stderr, counted and skipped.\n"
             "\n"
@@ -246,13 +247,15 @@ static void put_num(FILE *f, double v)
         fputs("null", f);
 }
 
-/* Statistics of metric `metric` (0 rmse, 1 si_rmse, 2 angle) of method m over n crops. */
+/* Statistics of metric `metric` (0 rmse, 1 si_rmse, 2 angle, 3 scale EV) of method m over n
+ * crops. */
 static int stats_of(const pl_eval_scores *s, int n, int m, int metric, double *buf,
                     pl_eval_stats *out)
 {
     for (int i = 0; i < n; i++) {
         const pl_eval_scores *x = &s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
-        buf[i] = metric == 0 ? x->rmse : metric == 1 ? x->si_rmse : x->angle_deg;
+        buf[i] = metric == 0 ? x->rmse : metric == 1 ? x->si_rmse : metric == 2 ? x->angle_deg
+                                                                                 : x->scale_ev;
     }
     return pl_eval_quartiles(buf, n, out);
 }
@@ -270,15 +273,17 @@ static void put_stats_json(FILE *f, const char *key, const pl_eval_stats *st, in
     fprintf(f, ",\"n\":%d}", st->n);
 }
 
-static const char *const metric_keys[3] = {"rmse", "si_rmse", "angle_deg"};
+#define N_METRICS 4
+static const char *const metric_keys[N_METRICS] = {"rmse", "si_rmse", "angle_deg", "scale_ev"};
 
-/* {"model":{"rmse":{...},"si_rmse":{...},"angle_deg":{...}},...} over n crops. */
+/* {"model":{"rmse":{...},"si_rmse":{...},"angle_deg":{...},"scale_ev":{...}},...} over n
+ * crops. */
 static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, double *buf)
 {
     fputc('{', f);
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
         fprintf(f, "%s\"%s\":{", m ? "," : "", pl_eval_method_key(m));
-        for (int q = 0; q < 3; q++) {
+        for (int q = 0; q < N_METRICS; q++) {
             pl_eval_stats st;
             int rc = stats_of(s, n, m, q, buf, &st);
             if (rc < 0) return rc;
@@ -304,6 +309,8 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i)
         put_num(f, x->si_rmse);
         fputs(",\"angle_deg\":", f);
         put_num(f, x->angle_deg);
+        fputs(",\"scale_ev\":", f);
+        put_num(f, x->scale_ev);
         fputc('}', f);
     }
     char lj[PL_MAX_LIGHTS * 256 + 128];
@@ -331,15 +338,15 @@ static void put_cell(FILE *f, const pl_eval_stats *st, int width)
 
 static int put_table(FILE *f, const pl_eval_scores *s, int n, double *buf)
 {
-    fprintf(f, "  %-24s  %-28s  %-28s  %s\n", "method", "rmse median [q1, q3]",
-            "si-rmse median [q1, q3]", "angle deg median [q1, q3]");
+    fprintf(f, "  %-24s  %-28s  %-28s  %-28s  %s\n", "method", "rmse median [q1, q3]",
+            "si-rmse median [q1, q3]", "angle deg median [q1, q3]", "scale EV median [q1, q3]");
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
         fprintf(f, "  %-24s", pl_eval_method_label(m));
-        for (int q = 0; q < 3; q++) {
+        for (int q = 0; q < N_METRICS; q++) {
             pl_eval_stats st;
             int rc = stats_of(s, n, m, q, buf, &st);
             if (rc < 0) return rc;
-            put_cell(f, &st, q < 2 ? 28 : 0);
+            put_cell(f, &st, q < N_METRICS - 1 ? 28 : 0);
         }
         fputc('\n', f);
     }

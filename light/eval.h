@@ -11,6 +11,10 @@
  *                  light/light.h) lit by the method's lighting and the TRUTH: the diffuse sphere
  *                  lit by the real panorama rotated into the crop's camera frame, times k
  *                  (pl_eval_truth_render).
+ *   scale_ev       log2 of the si-RMSE's least-squares scale (pl_render_ls_scale): by how many
+ *                  stops the method's render must be brightened (> 0) or dimmed (< 0) to best
+ *                  match the truth, its intensity error without its shape error; NaN when the
+ *                  render or that scale is 0.
  *   angle_deg      the angle between the method's primary light (pl_lighting_primary) and the
  *                  ground-truth lights' primary light; NaN when the ground truth has no light.
  *                  A lighting without lights has WebXR's default primary direction (0, 1, 0).
@@ -50,6 +54,7 @@ const char *pl_eval_method_label(int m);
 
 typedef struct pl_eval_scores {
     double rmse, si_rmse; /* render metrics (light/light.h), on the crop's scale */
+    double scale_ev;      /* log2 of the least-squares scale; NaN when undefined */
     double angle_deg;     /* 0..180, NaN when the ground truth has no light */
 } pl_eval_scores;
 

@@ -91,6 +91,9 @@ int pl_sphere_mask(int size, int x, int y);
  * Negative (PL_E_ARG) when the sizes differ or an image is NULL. */
 double pl_render_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
 double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
+/* The si-RMSE's scale alpha itself: how much a's intensity must be multiplied by to best match
+ * b (1 when a is all zero; PL_E_ARG as above). */
+double pl_render_ls_scale(const pl_image_f32 *a, const pl_image_f32 *b);
 
 /* Display version of a linear image for PNG: exposure so that the 99th percentile of the pixels'
  * max(r,g,b) (over pixels with any non-zero channel) maps to 1, clip, sRGB OETF, rounded to

@@ -232,7 +232,7 @@ double pl_render_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
     return rmse_scaled(a, b, 1.0);
 }
 
-double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
+double pl_render_ls_scale(const pl_image_f32 *a, const pl_image_f32 *b)
 {
     int rc = same_renders(a, b);
     if (rc < 0) return rc;
@@ -247,7 +247,14 @@ double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
                 aa += (double)a->data[i + (size_t)k] * a->data[i + (size_t)k];
             }
         }
-    return rmse_scaled(a, b, aa > 0 ? ab / aa : 1.0);
+    return aa > 0 ? ab / aa : 1.0;
+}
+
+double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
+{
+    double alpha = pl_render_ls_scale(a, b);
+    if (alpha < 0) return alpha;
+    return rmse_scaled(a, b, alpha);
 }
 
 static int cmp_float(const void *pa, const void *pb)

@@ -234,8 +234,8 @@ static void test_crop(void)
         goto done;
     }
     for (int m = 0; m < PL_EVAL_N_METHODS; m++)
-        printf("%-24s rmse %.5f si_rmse %.5f angle %.2f\n", pl_eval_method_label(m), s[m].rmse,
-               s[m].si_rmse, s[m].angle_deg);
+        printf("%-24s rmse %.5f si_rmse %.5f angle %.2f scale EV %+.3f\n",
+               pl_eval_method_label(m), s[m].rmse, s[m].si_rmse, s[m].angle_deg, s[m].scale_ev);
     const pl_eval_scores *a = &s[PL_EVAL_AMBIENT], *c = &s[PL_EVAL_GT_LIGHTS];
     CHECK(c->rmse < 0.2 * a->rmse && c->si_rmse < 0.2 * a->si_rmse,
           "(c) rmse %g si %g does not beat (a) rmse %g si %g", c->rmse, c->si_rmse, a->rmse,
@@ -257,6 +257,26 @@ static void test_crop(void)
         for (size_t i = 0; i < (size_t)16 * 16 * 3; i++)
             worst = fmax(worst, fabs(2 * t1.data[i] - t2.data[i]));
         CHECK(worst < 1e-5, "truth render not linear in k: %g", worst);
+        /* scale EV: an estimate at four times the truth's intensity must be dimmed by 2 stops;
+         * its shape error (si-RMSE) does not change */
+        pl_lighting bright = pred;
+        for (int i = 0; i < bright.n_lights; i++)
+            for (int ch = 0; ch < 3; ch++) bright.lights[i].rgb[ch] *= 4;
+        for (int ch = 0; ch < 3; ch++) bright.ambient[ch] *= 4;
+        pl_eval_scores s1, s4;
+        if (pl_eval_score(&pred, &t1, &gt, &s1) == 0 && pl_eval_score(&bright, &t1, &gt, &s4) == 0) {
+            CHECK(fabs(s1.scale_ev) < 0.05, "estimate = ground truth: scale EV %g", s1.scale_ev);
+            CHECK(fabs(s4.scale_ev - (s1.scale_ev - 2)) < 1e-4, "4x brighter: scale EV %g, %g",
+                  s4.scale_ev, s1.scale_ev);
+            CHECK(fabs(s4.si_rmse - s1.si_rmse) < 1e-4 * (1 + s1.si_rmse), "si-RMSE %g vs %g",
+                  s4.si_rmse, s1.si_rmse);
+        } else {
+            CHECK(0, "score: %s", pl_last_error());
+        }
+        /* a lighting that renders black has no scale */
+        pl_lighting dark = {0};
+        CHECK(pl_eval_score(&dark, &t1, &gt, &s1) == 0 && isnan(s1.scale_ev),
+              "black lighting: scale EV %g", s1.scale_ev);
     }
     pl_image_f32_free(&t1);
     pl_image_f32_free(&t2);

@@ -64,6 +64,7 @@ def stats_ok(m, where):
         ok = all(isinstance(s.get(q), (int, float)) for q in ("median", "q1", "q3"))
         need(ok and s["q1"] <= s["median"] <= s["q3"] and s["q1"] >= 0, f"{where}.{k} = {s}")
     need("median" in m.get("angle_deg", {}), f"{where}.angle_deg")
+    need("median" in m.get("scale_ev", {}), f"{where}.scale_ev")
 for m in methods:
     stats_ok(d["methods"].get(m, {}), "methods." + m)
 need(len(d.get("panoramas", [])) == n_pano, "panoramas rows")
@@ -78,6 +79,7 @@ a, c = d["methods"]["ambient"], d["methods"]["gt_lights"]
 need(c["rmse"]["median"] < 0.5 * a["rmse"]["median"],
      f"(c) rmse {c['rmse']['median']} does not beat (a) {a['rmse']['median']}")
 need(c["angle_deg"]["median"] < 1e-3, "(c) angle")
+need(abs(c["scale_ev"]["median"]) < 0.25, f"(c) scale EV {c['scale_ev']['median']}: not near 0")
 print("\n".join("FAIL: " + e for e in err) or f"ok   JSON shape of {path}: (a) rmse {a['rmse']['median']:.4g}, (c) rmse {c['rmse']['median']:.4g}")
 sys.exit(1 if err else 0)
 PY
