@@ -114,4 +114,17 @@ worst = max(float((a[k].float() - b[k].float()).abs().max()) for k in keys)
 assert worst < 1e-6 and any(k.startswith("head_rgb") for k in keys), worst
 print(f"--init-all: max |weight difference| after one step of lr 1e-12: {worst:.2g}")
 EOF
+# --train-scenes indoor drops the outdoor crops from training: a copy of the data whose index
+# calls its first 4 crops outdoor and the last 2 indoor trains on 2 crops; all-outdoor is refused
+mkdir -p "$TMP/data3"
+ln -s "$(cd "$TMP/data/crops" && pwd)" "$TMP/data3/crops"
+awk -F'\t' -v OFS='\t' 'NR > 1 { $4 = NR <= 5 ? "outdoor" : "indoor" } 1' "$TMP/data/index.tsv" \
+    >"$TMP/data3/index.tsv"
+"${TR[@]}" --data "$TMP/data3" --ckpt-dir "$TMP/ck6" --log "$TMP/log6" --train-scenes indoor \
+    --max-steps 1 >/dev/null || fail "--train-scenes indoor"
+grep -q "start: 2 train + 0 val crops" "$TMP/log6" || fail "indoor crops: $(head -1 "$TMP/log6")"
+awk -F'\t' -v OFS='\t' 'NR > 1 { $4 = "outdoor" } 1' "$TMP/data/index.tsv" >"$TMP/data3/index.tsv"
+"${TR[@]}" --data "$TMP/data3" --ckpt-dir "$TMP/ck7" --log "$TMP/log7" --train-scenes indoor \
+    --max-steps 1 >"$TMP/out7" 2>&1 && fail "--train-scenes indoor on outdoor crops ran"
+grep -q "no training crops of scenes 'indoor'" "$TMP/out7" || fail "no reason: $(cat "$TMP/out7")"
 echo "ok"

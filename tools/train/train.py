@@ -6,7 +6,7 @@
                          [--step1-epochs 60] [--step2-epochs 50] [--halve-every 25] [--lr 1e-3]
                          [--batch 16] [--bf16] [--threads 2] [--export OUT.plm]
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
-                         [--step2-from STEP1.pt]
+                         [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -39,6 +39,8 @@ Adam (beta1 0.9), lr 1e-3 halved every --halve-every epochs, restarting at --lr 
 Augmentation: horizontal flips (image mirrored, light x negated; the crops themselves already
 vary yaw, pitch, fov, exposure and gamma). Validation: --val-panos panoramas held out (chosen
 by name hash, half of them indoor or indoor-semi, half outdoor), loss logged each epoch.
+--train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only (the held-out
+ones of both kinds stay the validation).
 
 Checkpoints (--ckpt-dir): last.pt every --ckpt-minutes and at each epoch end (model, optimiser,
 step, epoch, batch within the epoch, RNG states, configuration), step1.pt when step 1 ends,
@@ -79,9 +81,9 @@ COS45 = math.cos(math.radians(45.0))
 # configuration keys that must match to resume a checkpoint
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
-               "step2_loss", "w_d", "w_d1")
+               "step2_loss", "w_d", "w_d1", "train_scenes")
 # what a checkpoint made before a key existed was trained with
-RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0}
+RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all"}
 
 
 def log_line(path, text):
@@ -93,6 +95,13 @@ def log_line(path, text):
 
 
 # ---- data -------------------------------------------------------------------------------------
+
+def crop_outdoor(data, m):
+    """Boolean [m]: which of the index's first m crops are of an outdoor panorama."""
+    with open(os.path.join(data, "index.tsv"), encoding="utf-8") as f:
+        rows = [ln.rstrip("\n").split("\t") for ln in f][1:m + 1]
+    return torch.tensor([r[3] == "outdoor" for r in rows], dtype=torch.bool)
+
 
 def load_dataset(data, hw, val_panos, limit=0):
     """Crops of index.tsv resized to hw (area filter), u8 [M, H, W, 3], their ground truth
@@ -499,6 +508,9 @@ def main(argv=None):
     ap.add_argument("--step2-from", metavar="CKPT", help="skip step 1: start step 2 from this "
                     "checkpoint's network (a step1.pt of the same data and input size)")
     ap.add_argument("--val-panos", type=int, default=4)
+    ap.add_argument("--train-scenes", choices=("all", "indoor"), default="all",
+                    help="train on crops of all panoramas, or of the indoor (and indoor-semi) "
+                         "ones only; validation keeps its held-out panoramas of both kinds")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
     ap.add_argument("--threads", type=int, default=2)
@@ -549,8 +561,13 @@ def main(argv=None):
 
         t0 = time.time()
         imgs, gt, val, held, digest = load_dataset(args.data, args.input, args.val_panos, args.limit)
-        tr = torch.nonzero(~val).flatten()
+        keep = ~val
+        if args.train_scenes == "indoor":
+            keep &= ~crop_outdoor(args.data, len(imgs))
+        tr = torch.nonzero(keep).flatten()
         va = torch.nonzero(val).flatten()
+        if len(tr) == 0:
+            raise ValueError(f"{args.data}: no training crops of scenes '{args.train_scenes}'")
         cfg = {"data": os.path.abspath(args.data), "data_index_sha256": digest,
                "input": list(args.input), "n_lights": args.n_lights, "batch": args.batch,
                "lr": args.lr, "halve_every": args.halve_every, "seed": args.seed,
@@ -558,6 +575,7 @@ def main(argv=None):
                "map_width": args.map_width, "radiance": args.radiance, "w_r": args.w_r,
                "w_a": args.w_a, "val_panos": args.val_panos, "held_out": held,
                "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
+               "train_scenes": args.train_scenes,
                "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
