@@ -96,4 +96,25 @@ for i, (L, ref_path) in enumerate(zip(args[::2], args[1::2])):
         ok &= rm > 0.1
 sys.exit(0 if ok else 1)
 EOF
+# train.py's sphere_l2 with --sphere-metric relative: 0 for the truth itself, quadratic in the
+# error, unchanged when both lightings are scaled together (per crop), and it punishes twice the
+# truth more than half of it
+"$PY" - <<'EOF' || fail "sphere_l2 --sphere-metric relative"
+import sys
+sys.path.insert(0, "tools/train")
+import torch, sg, train
+torch.manual_seed(3)
+w = 32
+udirs, op = sg.equirect_dirs(w), sg.diffuse_operator(w, sg.sphere_normals(8))
+d = torch.nn.functional.normalize(torch.randn(4, 3, 3), dim=-1)
+size, rgb = torch.rand(4, 3) * 0.5 + 0.05, torch.rand(4, 3, 3) * 30
+amb = torch.rand(4, 3)
+m = sg.render(d, size, rgb, udirs)
+cfg = {"sphere_metric": "relative", "radiance": "log"}
+L = lambda k, s=1.0: float(train.sphere_l2(k * s * m, k * s * amb, s * m, s * amb, op, cfg))
+checks = {"truth": L(1) < 1e-12, "quadratic": abs(L(3) - 4 * L(2)) < 1e-4 * L(3),
+          "per-crop scale": abs(L(2, 10.0) - L(2)) < 1e-4 * L(2), "bright > dark": L(2) > L(0.5)}
+print("  relative sphere loss:", ", ".join(f"{k} {'ok' if v else 'FAILED'}" for k, v in checks.items()))
+sys.exit(0 if all(checks.values()) else 1)
+EOF
 echo "ok: $n maps and spheres match parlight render; mirrored lights are rejected"

@@ -7,6 +7,7 @@
                          [--batch 16] [--bf16] [--threads 2] [--export OUT.plm]
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
+                         [--sphere-metric log|relative]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -81,9 +82,10 @@ COS45 = math.cos(math.radians(45.0))
 # configuration keys that must match to resume a checkpoint
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
-               "step2_loss", "w_d", "w_d1", "train_scenes")
+               "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric")
 # what a checkpoint made before a key existed was trained with
-RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all"}
+RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
+                   "sphere_metric": "log"}
 
 
 def log_line(path, text):
@@ -221,9 +223,15 @@ def sphere_l2(pm, pamb, gm, gamb, op, cfg):
     """L2 between the diffuse spheres (sg.diffuse, after the radiance transform) lit by the
     predicted and the ground-truth maps of lights pm, gm plus their ambients: the whole
     lighting's energy and its low-frequency shape, which the per-light losses of step 2 do not
-    see. op's weights sum to 1 per normal, so an ambient adds itself to every sphere pixel."""
-    return F.mse_loss(radiance_tf(sg.diffuse(pm, op) + pamb[:, None, :], cfg["radiance"]),
-                      radiance_tf(sg.diffuse(gm, op) + gamb[:, None, :], cfg["radiance"]))
+    see. op's weights sum to 1 per normal, so an ambient adds itself to every sphere pixel.
+    --sphere-metric relative: instead, the squared difference of the linear spheres divided by
+    the square of the ground-truth sphere's mean, per crop, the square of the relative render
+    RMSE that `parlight eval` scores (it punishes a too-bright estimate more than log1p does)."""
+    ps, gs = sg.diffuse(pm, op) + pamb[:, None, :], sg.diffuse(gm, op) + gamb[:, None, :]
+    if cfg.get("sphere_metric", "log") == "relative":
+        scale = gs.mean(dim=(1, 2), keepdim=True).clamp_min(1e-3)
+        return F.mse_loss(ps / scale, gs / scale)
+    return F.mse_loss(radiance_tf(ps, cfg["radiance"]), radiance_tf(gs, cfg["radiance"]))
 
 
 def diffuse_loss(out, gt, udirs, op, cfg):
@@ -508,6 +516,9 @@ def main(argv=None):
     ap.add_argument("--step2-from", metavar="CKPT", help="skip step 1: start step 2 from this "
                     "checkpoint's network (a step1.pt of the same data and input size)")
     ap.add_argument("--val-panos", type=int, default=4)
+    ap.add_argument("--sphere-metric", choices=("log", "relative"), default="log",
+                    help="the diffuse-sphere terms' error: L2 after log1p, or the squared "
+                         "relative error of the linear spheres (per crop, over the truth's mean)")
     ap.add_argument("--train-scenes", choices=("all", "indoor"), default="all",
                     help="train on crops of all panoramas, or of the indoor (and indoor-semi) "
                          "ones only; validation keeps its held-out panoramas of both kinds")
@@ -575,7 +586,7 @@ def main(argv=None):
                "map_width": args.map_width, "radiance": args.radiance, "w_r": args.w_r,
                "w_a": args.w_a, "val_panos": args.val_panos, "held_out": held,
                "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
-               "train_scenes": args.train_scenes,
+               "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
                "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
