@@ -43,7 +43,7 @@ out=$("$BUILD/parlight" estimate --model "$M" --camera libcamerax 2>&1)
 
 start=$(date +%s%N)
 tools/camrig/run.sh --frames "$T/frames" --backend both --n-frames 2 --build "$BUILD" \
-    --model "$M" --timeout 170 --results "$T/results.txt" >"$T/json.txt" 2>"$T/log.txt"
+    --model "$M" --timeout 340 --results "$T/results.txt" >"$T/json.txt" 2>"$T/log.txt"
 rc=$?
 cat "$T/log.txt"
 if [ $rc -ne 0 ] && grep -q "apt-get download\|cannot resolve" "$T/log.txt"; then

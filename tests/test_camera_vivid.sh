@@ -39,7 +39,7 @@ if ! tools/camrig/build.sh --build "$BUILD" --model "$M" >"$T/build.log" 2>&1; t
     fail "tools/camrig/build.sh failed"
 fi
 tools/camrig/run.sh --backend v4l2 --suite full --frames 2 --build "$BUILD" --no-build \
-    --timeout 240 --results "$T/results.txt" >"$T/json.txt" 2>"$T/log.txt"
+    --timeout 480 --results "$T/results.txt" >"$T/json.txt" 2>"$T/log.txt"
 rc=$?
 cat "$T/log.txt"
 [ $rc -eq 3 ] && skip "the camera VM did not start: $(grep -m1 'did not start' "$T/log.txt")"
