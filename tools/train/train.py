@@ -225,8 +225,9 @@ def sphere_l2(pm, pamb, gm, gamb, op, cfg):
     lighting's energy and its low-frequency shape, which the per-light losses of step 2 do not
     see. op's weights sum to 1 per normal, so an ambient adds itself to every sphere pixel.
     --sphere-metric relative: instead, the squared difference of the linear spheres divided by
-    the square of the ground-truth sphere's mean, per crop, the square of the relative render
-    RMSE that `parlight eval` scores (it punishes a too-bright estimate more than log1p does)."""
+    the square of the ground-truth sphere's mean, per crop: the square of the render RMSE that
+    `parlight eval` scores, relative to the truth's mean (it punishes a too-bright estimate more
+    than log1p does)."""
     ps, gs = sg.diffuse(pm, op) + pamb[:, None, :], sg.diffuse(gm, op) + gamb[:, None, :]
     if cfg.get("sphere_metric", "log") == "relative":
         scale = gs.mean(dim=(1, 2), keepdim=True).clamp_min(1e-3)
