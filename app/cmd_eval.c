@@ -35,7 +35,7 @@ static void usage(FILE *f)
             "lit by the panorama in the crop's camera frame on the crop's scale:\n"
             "  rmse, si_rmse  render RMSE and scale-invariant RMSE (diffuse sphere, S px)\n"
             "  angle          degrees between the primary light and the ground truth's\n"
-            "  scale EV       log2 of si_rmse's scale: stops the render must be brightened by\n"
+            "  scale EV       stops the render is too dark by (log2 of si_rmse's scale)\n"
             "Prints the median and quartiles over all crops per method (docs/EVAL.md).\n"
             "Files that are not panoramas are reported on stderr, counted and skipped.\n"
             "\n"
