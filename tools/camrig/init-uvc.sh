@@ -98,28 +98,21 @@ for d in /sys/class/video4linux/* /sys/bus/media/devices/*; do
 done
 
 # step NAME CMD...: runs CMD under a timeout, relays its output and status once it is done.
-step() {
-    name=$1
-    shift
+# step_format_retry NAME CMD...: the same, but runs CMD once more when the first run ended with
+# the driver choosing another format than the one asked for: the gadget's known race
+# (uvc-gadget.c, SET_CUR overtaken: the host's PROBE data is lost and the device answers with its
+# previous format). parlight's error there is right; the second run's output is the step's, with
+# a note of the retry on its stderr.
+step() { run_step 0 "$@"; }
+step_format_retry() { run_step 1 "$@"; }
+run_step() {
+    retry=$1
+    name=$2
+    shift 2
     emit "@@BEGIN $name"
     timeout 150 "$@" >/tmp/out 2>/tmp/err
     rc=$?
-    sed 's/^/O /' /tmp/out >$OUT
-    sed 's/^/E /' /tmp/err >$OUT
-    emit "@@END $name $rc"
-}
-
-# The same, but run once more when the first run ended with the driver choosing another format
-# than the one asked for: the gadget's known race (uvc-gadget.c, SET_CUR overtaken: the host's
-# PROBE data is lost and the device answers with its previous format). parlight's error there is
-# right; the second run's output is the step's, with a note of the retry on its stderr.
-step_format_retry() {
-    name=$1
-    shift
-    emit "@@BEGIN $name"
-    timeout 150 "$@" >/tmp/out 2>/tmp/err
-    rc=$?
-    if [ $rc != 0 ] && grep -q 'the driver set' /tmp/err; then
+    if [ "$retry" = 1 ] && [ $rc != 0 ] && grep -q 'the driver set' /tmp/err; then
         first=$(cat /tmp/err)
         timeout 150 "$@" >/tmp/out 2>/tmp/err
         rc=$?
