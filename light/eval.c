@@ -274,14 +274,11 @@ int pl_eval_score(const pl_lighting *L, const pl_image_f32 *truth, const pl_ligh
     if (rc < 0) return rc;
     out->rmse = pl_render_rmse(&r, truth);
     out->si_rmse = pl_render_si_rmse(&r, truth);
-    double alpha = pl_render_ls_scale(&r, truth);
-    int dark = 1;
-    for (size_t i = 0; r.data && i < (size_t)r.width * (size_t)r.height * 3; i++)
-        dark &= r.data[i] == 0.0f;
+    const double alpha = pl_render_ls_scale(&r, truth); /* NaN for a black render */
     pl_image_f32_free(&r);
     if (out->rmse < 0 || out->si_rmse < 0 || alpha < 0)
         return PL_E_ARG; /* message set by the metric */
-    out->scale_ev = !dark && alpha > 0 ? log2(alpha) : NAN;
+    out->scale_ev = alpha > 0 ? log2(alpha) : NAN;
     out->angle_deg = NAN;
     if (gt->n_lights > 0) {
         float da[3], db[3], rgb[3];

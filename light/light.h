@@ -92,7 +92,7 @@ int pl_sphere_mask(int size, int x, int y);
 double pl_render_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
 double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
 /* The si-RMSE's scale alpha itself: how much a's intensity must be multiplied by to best match
- * b (1 when a is all zero; PL_E_ARG as above). */
+ * b (NaN when a is all zero, where si-RMSE takes alpha = 1; PL_E_ARG as above). */
 double pl_render_ls_scale(const pl_image_f32 *a, const pl_image_f32 *b);
 
 /* Display version of a linear image for PNG: exposure so that the 99th percentile of the pixels'

@@ -247,14 +247,14 @@ double pl_render_ls_scale(const pl_image_f32 *a, const pl_image_f32 *b)
                 aa += (double)a->data[i + (size_t)k] * a->data[i + (size_t)k];
             }
         }
-    return aa > 0 ? ab / aa : 1.0;
+    return aa > 0 ? ab / aa : NAN;
 }
 
 double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
 {
     double alpha = pl_render_ls_scale(a, b);
     if (alpha < 0) return alpha;
-    return rmse_scaled(a, b, alpha);
+    return rmse_scaled(a, b, isnan(alpha) ? 1.0 : alpha);
 }
 
 static int cmp_float(const void *pa, const void *pb)
