@@ -5,8 +5,8 @@
  *
  *   PARLIGHT_ISA=avx512vnni build/tests/bench_simd_s8 [-v] [reps] [H W]
  *
- * Prints (-v: first one line per layer), per layer type: layers, MMAC, the median ms summed over the layers (A building and
- * convolution separately) and GMAC/s of the convolution. */
+ * Prints, per layer type: layers, MMAC, the median ms summed over the layers (A building and
+ * convolution separately) and GMAC/s of the convolution; -v first prints one line per layer. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -86,9 +86,7 @@ static void short_quant(int out_c, int per_oc, const int8_t *w, int32_t *shift, 
         shift[o] = r == 0 ? 0 : r == 1 ? -1 : r == 2 ? -31 : rint_in(-20, 0);
         int64_t sa = 0;
         for (int i = 0; i < per_oc; i++)
-            sa += w[(size_t)o * (size_t)per_oc + (size_t)i] < 0
-                      ? -w[(size_t)o * (size_t)per_oc + (size_t)i]
-                      : w[(size_t)o * (size_t)per_oc + (size_t)i];
+            sa += abs(w[(size_t)o * (size_t)per_oc + (size_t)i]);
         const int64_t edge = ((int64_t)1 << 30) - 1 - 255 * sa + (o == over);
         bias[o] = rint_in(-(1 << 20), 1 << 20);
         if ((o == over || rnd() % 4 == 0) && edge > 0)
