@@ -98,21 +98,23 @@ def log_line(path, text):
 
 # ---- data -------------------------------------------------------------------------------------
 
-def crop_outdoor(data, m):
-    """Boolean [m]: which of the index's first m crops are of an outdoor panorama."""
+def read_index(data, limit=0):
+    """The rows of index.tsv (png, json, panorama, scene), the first `limit` when > 0."""
     with open(os.path.join(data, "index.tsv"), encoding="utf-8") as f:
-        rows = [ln.rstrip("\n").split("\t") for ln in f][1:m + 1]
-    return torch.tensor([r[3] == "outdoor" for r in rows], dtype=torch.bool)
+        rows = [ln.rstrip("\n").split("\t") for ln in f][1:]
+    return rows[:limit] if limit else rows
+
+
+def crop_outdoor(data, limit=0):
+    """Boolean per crop of read_index(data, limit): whether it is of an outdoor panorama."""
+    return torch.tensor([r[3] == "outdoor" for r in read_index(data, limit)], dtype=torch.bool)
 
 
 def load_dataset(data, hw, val_panos, limit=0):
     """Crops of index.tsv resized to hw (area filter), u8 [M, H, W, 3], their ground truth
     padded to MAX_GT lights, and a boolean validation mask (whole panoramas held out)."""
     index = os.path.join(data, "index.tsv")
-    with open(index, encoding="utf-8") as f:
-        rows = [ln.rstrip("\n").split("\t") for ln in f][1:]
-    if limit:
-        rows = rows[:limit]
+    rows = read_index(data, limit)
     if not rows:
         raise ValueError(f"{index}: no crops")
     panos = sorted({(r[2], r[3]) for r in rows},
@@ -575,7 +577,7 @@ def main(argv=None):
         imgs, gt, val, held, digest = load_dataset(args.data, args.input, args.val_panos, args.limit)
         keep = ~val
         if args.train_scenes == "indoor":
-            keep &= ~crop_outdoor(args.data, len(imgs))
+            keep &= ~crop_outdoor(args.data, args.limit)
         tr = torch.nonzero(keep).flatten()
         va = torch.nonzero(val).flatten()
         if len(tr) == 0:
