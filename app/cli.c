@@ -7,6 +7,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "light/light.h"
+
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out)
 {
     char *end;
@@ -37,6 +39,29 @@ int cli_float3(const char *cmd, const char *flag, const char *s, float out[3])
 bad:
     fprintf(stderr, "parlight %s: %s '%s': expected three finite numbers x,y,z (metres)\n", cmd,
             flag, s);
+    return -1;
+}
+
+int cli_anchor(const char *cmd, const char *s, double out[3])
+{
+    out[0] = out[1] = 0, out[2] = 2.2;
+    if (!strcmp(s, "off")) return 0;
+    const char *p = s;
+    int n = 0;
+    for (;;) {
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (errno || end == p || !isfinite(v)) goto bad;
+        out[n++] = v;
+        p = end;
+        if (*p != ',' || n == 3) break;
+        p++;
+    }
+    if (n >= 2 && *p == '\0' && pl_anchor_check(out[0], out[1], out[2]) == 0) return 0;
+bad:
+    fprintf(stderr, "parlight %s: --anchor '%s': expected off, or W,B or W,B,GAMMA with W in "
+            "0..1, B in -8..8 (stops), GAMMA in 1..3\n", cmd, s);
     return -1;
 }
 

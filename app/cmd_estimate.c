@@ -24,7 +24,7 @@ static void help(FILE *f)
     fprintf(f,
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
-            "                         [--realtime] [--fps-cap F]\n\n"
+            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
@@ -47,7 +47,11 @@ static void help(FILE *f)
             "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
             "                  frames that arrive while the network is busy are dropped and\n"
             "                  counted in \"dropped\" (cameras always run this way)\n"
-            "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n\n"
+            "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
+            "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
+            "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
+            "                  luminance over the lighting's); off: the network's intensity\n"
+            "                  (docs/LIGHTING.md, \"Intensity anchor\")\n\n"
             "SIGINT or SIGTERM finishes the frame in flight, flushes the outputs and exits 0.\n");
 }
 
@@ -132,17 +136,19 @@ int cmd_estimate(int argc, char **argv)
                                          {"out", required_argument, 0, 'o'},
                                          {"realtime", no_argument, 0, 'r'},
                                          {"fps-cap", required_argument, 0, 'f'},
+                                         {"anchor", required_argument, 0, 'A'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
     int n_frames = 0, threads = 1, have_at = 0, c;
     float at[3] = {0, 0, 0}, alpha = -1.0f;
     double fps_cap = 0.0;
-    int realtime = 0;
+    int realtime = 0, have_anchor = 0;
+    double anchor[3];
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
@@ -169,6 +175,10 @@ int cmd_estimate(int argc, char **argv)
             break;
         }
         case 'r': realtime = 1; break;
+        case 'A':
+            if (cli_anchor("estimate", optarg, anchor) < 0) return 2;
+            have_anchor = 1;
+            break;
         case 'f': {
             char *end;
             fps_cap = strtod(optarg, &end);
@@ -221,7 +231,8 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         return st_open == PL_E_ARG ? 2 : 1;
     }
-    if (pl_model_load(model_path, &model) < 0 || pl_model_set_threads(model, threads) < 0) {
+    if (pl_model_load(model_path, &model) < 0 || pl_model_set_threads(model, threads) < 0 ||
+        (have_anchor && pl_model_set_anchor(model, anchor[0], anchor[1], anchor[2]) < 0)) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }

@@ -24,7 +24,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: parlight eval --model M.plm --hdr DIR [--crops N] [--size S] [--threads N]\n"
-            "                     [--json] [--per-pano]\n"
+            "                     [--json] [--per-pano] [--anchor off|W,B[,GAMMA]]\n"
             "\n"
             "Scores a model on the paper's crops of every HDR panorama (.exr/.hdr, 2:1) in DIR:\n"
             "N crops per panorama, yaws 360/N apart at pitch 0, fov 60, 640x480, auto exposure,\n"
@@ -47,6 +47,9 @@ static void usage(FILE *f)
             "                  results do not depend on N\n"
             "  --json          one JSON object: per-method statistics and per-panorama rows\n"
             "  --per-pano      the table for every panorama too\n"
+            "  --anchor A      the model's intensity anchor replaced (as in parlight estimate);\n"
+            "                  off scores the network's own intensity, what\n"
+            "                  tools/train/fit_anchor.py fits an anchor to\n"
             "  -h, --help      this text\n");
 }
 
@@ -56,6 +59,7 @@ typedef struct crop_job {
     pl_image_u8 ldr;
     double k;
     pl_lighting pred, gt;
+    double frame_ev; /* log2(frame's mean luminance / the estimate's), pl_anchor_ratio_ev */
     pl_eval_scores s[PL_EVAL_N_METHODS];
     int rc;
     char err[512];
@@ -101,6 +105,7 @@ typedef struct pano_row {
     char *file;
     int width, height, n_gt_lights;
     double *yaw, *k;        /* [crops] */
+    double *frame_ev;       /* [crops] */
     pl_lighting *pred, *gt; /* [crops]: the model's estimates, the ground truths */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
 } pano_row;
@@ -111,6 +116,7 @@ static void free_row(pano_row *r)
 {
     free(r->yaw);
     free(r->k);
+    free(r->frame_ev);
     free(r->s);
     free(r->pred);
     free(r->gt);
@@ -122,8 +128,8 @@ static void free_row(pano_row *r)
  * SKIP_FILE when the file is not a usable panorama, or a negative status on any other failure
  * (the message in pl_last_error). ms[0..2] accumulate the wall time of the three phases. */
 static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model *model,
-                         pl_pool *pool, int crops, int size, crop_job *jobs, pano_row *r,
-                         double ms[3])
+                         const pl_model_info *mi, pl_pool *pool, int crops, int size,
+                         crop_job *jobs, pano_row *r, double ms[3])
 {
     pl_image_f32 pano = {0, 0, NULL};
     pl_lighting lights;
@@ -150,6 +156,12 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         if (rc == 0 && (rc = pl_lighting_check(&j->pred)) < 0)
             pl_error_prefix(rc, "the model's estimate is not a valid lighting");
         if (rc < 0) record_error(j, rc);
+        int x0, y0, cw, ch; /* the region the model saw */
+        pl_crop_to_aspect(j->ldr.width, j->ldr.height, mi->input_w, mi->input_h, &x0, &y0, &cw,
+                          &ch);
+        j->frame_ev = pl_anchor_ratio_ev(
+            pl_frame_mean_luminance(j->ldr.data, j->ldr.stride, x0, y0, cw, ch, mi->anchor[2]),
+            &j->pred);
     }
     const int64_t t2 = pl_now_ns();
     pl_pool_for(pool, crops, score_crops, &ctx);
@@ -169,16 +181,18 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     if (rc < 0) return rc;
     r->yaw = malloc((size_t)crops * sizeof *r->yaw);
     r->k = malloc((size_t)crops * sizeof *r->k);
+    r->frame_ev = malloc((size_t)crops * sizeof *r->frame_ev);
     r->s = malloc((size_t)crops * PL_EVAL_N_METHODS * sizeof *r->s);
     r->pred = malloc((size_t)crops * sizeof *r->pred);
     r->gt = malloc((size_t)crops * sizeof *r->gt);
-    if (!r->yaw || !r->k || !r->s || !r->pred || !r->gt) {
+    if (!r->yaw || !r->k || !r->frame_ev || !r->s || !r->pred || !r->gt) {
         free_row(r);
         return pl_error(PL_E_NOMEM, "out of memory");
     }
     for (int i = 0; i < crops; i++) {
         r->yaw[i] = jobs[i].p.yaw_deg;
         r->k[i] = jobs[i].k;
+        r->frame_ev[i] = jobs[i].frame_ev;
         r->pred[i] = jobs[i].pred;
         r->gt[i] = jobs[i].gt;
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
@@ -300,7 +314,8 @@ static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, double *buf
  * estimate and the ground truth (lights JSON members, light/lights_json.h). */
 static int put_crop_json(FILE *f, const pano_row *pr, int i)
 {
-    fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g", pr->yaw[i], pr->k[i]);
+    fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g,\"frame_ev\":", pr->yaw[i], pr->k[i]);
+    put_num(f, pr->frame_ev[i]);
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
         const pl_eval_scores *x = &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
         fprintf(f, ",\"%s\":{\"rmse\":", pl_eval_method_key(m));
@@ -311,6 +326,8 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i)
         put_num(f, x->angle_deg);
         fputs(",\"scale_ev\":", f);
         put_num(f, x->scale_ev);
+        fputs(",\"render_rms\":", f);
+        put_num(f, x->render_rms);
         fputc('}', f);
     }
     char lj[PL_MAX_LIGHTS * 256 + 128];
@@ -362,10 +379,12 @@ int cmd_eval(int argc, char **argv)
                                          {"threads", required_argument, 0, 't'},
                                          {"json", no_argument, 0, 'j'},
                                          {"per-pano", no_argument, 0, 'p'},
+                                         {"anchor", required_argument, 0, 'A'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *dir = NULL;
-    int crops = 8, size = 64, threads = 1, json = 0, per_pano = 0, c;
+    int crops = 8, size = 64, threads = 1, json = 0, per_pano = 0, have_anchor = 0, c;
+    double anchor[3];
     optind = 1;
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
@@ -390,6 +409,10 @@ int cmd_eval(int argc, char **argv)
             break;
         case 'p':
             per_pano = 1;
+            break;
+        case 'A':
+            if (cli_anchor("eval", optarg, anchor) < 0) return 2;
+            have_anchor = 1;
             break;
         case 'h':
             usage(stdout);
@@ -421,7 +444,9 @@ int cmd_eval(int argc, char **argv)
     const int64_t t_start = pl_now_ns();
 
     if (list_dir(dir, &files, &n_files) < 0 || pl_model_load(model_path, &model) < 0 ||
-        pl_model_set_threads(model, threads) < 0 || pl_model_get_info(model, &mi) < 0 ||
+        pl_model_set_threads(model, threads) < 0 ||
+        (have_anchor && pl_model_set_anchor(model, anchor[0], anchor[1], anchor[2]) < 0) ||
+        pl_model_get_info(model, &mi) < 0 ||
         pl_pool_create(threads, &pool) < 0) {
         fprintf(stderr, "parlight eval: %s\n", pl_last_error());
         goto out;
@@ -439,7 +464,8 @@ int cmd_eval(int argc, char **argv)
     for (int f = 0; f < n_files; f++) {
         char path[4096];
         snprintf(path, sizeof path, "%s/%s", dir, files[f]);
-        int st = eval_panorama(path, &ep, model, pool, crops, size, jobs, &rows[n_rows], ms);
+        int st =
+            eval_panorama(path, &ep, model, &mi, pool, crops, size, jobs, &rows[n_rows], ms);
         if (st == SKIP_FILE) {
             fprintf(stderr, "parlight eval: skipping %s: %s\n", files[f], pl_last_error());
             skipped[n_skipped].file = files[f];
@@ -475,7 +501,9 @@ int cmd_eval(int argc, char **argv)
     if (json) {
         printf("{\"model\":");
         pl_app_put_json_string(stdout, model_path);
-        printf(",\"precision\":\"%s\",\"n_lights\":%d,\"hdr\":", mi.precision, mi.n_lights);
+        printf(",\"precision\":\"%s\",\"n_lights\":%d,\"intensity_anchor\":{\"w\":%.6g,\"b\":%.6g,"
+               "\"gamma\":%.6g},\"hdr\":", mi.precision, mi.n_lights, mi.anchor[0], mi.anchor[1],
+               mi.anchor[2]);
         pl_app_put_json_string(stdout, dir);
         pl_crop_params cp;
         pl_crop_default_params(&cp);
@@ -511,10 +539,14 @@ int cmd_eval(int argc, char **argv)
         }
         printf("]}\n");
     } else {
-        printf("parlight eval: %s (%s, %d lights) on %s: %d panorama%s x %d crops (yaw 360/%d "
+        char an[96] = "";
+        if (mi.anchor[0] != 0 || mi.anchor[1] != 0)
+            snprintf(an, sizeof an, ", intensity anchor w %g b %g gamma %g", mi.anchor[0],
+                     mi.anchor[1], mi.anchor[2]);
+        printf("parlight eval: %s (%s, %d lights%s) on %s: %d panorama%s x %d crops (yaw 360/%d "
                "apart, pitch 0, fov 60, 640x480, gamma 2.2), diffuse sphere %d px\n",
-               model_path, mi.precision, mi.n_lights, dir, n_rows, n_rows == 1 ? "" : "s", crops,
-               crops, size);
+               model_path, mi.precision, mi.n_lights, an, dir, n_rows, n_rows == 1 ? "" : "s",
+               crops, crops, size);
         rc = put_table(stdout, all, n_crops, buf);
         for (int r = 0; r < n_rows && per_pano && rc == 0; r++) {
             printf("\n%s (%dx%d, %d ground-truth light%s)\n", rows[r].file, rows[r].width,

@@ -85,6 +85,11 @@ int cmd_info(int argc, char **argv)
            (double)info.file_size / (1024.0 * 1024.0));
     printf("arena        %zu bytes (%.1f MiB)\n", info.arena_bytes,
            (double)info.arena_bytes / (1024.0 * 1024.0));
+    if (info.anchor[0] != 0 || info.anchor[1] != 0)
+        printf("anchor       w %g, b %g stops, gamma %g (intensity anchor, docs/LIGHTING.md)\n",
+               info.anchor[0], info.anchor[1], info.anchor[2]);
+    else
+        printf("anchor       off (the network's own intensity)\n");
     printf("provenance   %s\n", info.provenance[0] ? info.provenance : "(none recorded)");
     pl_model_free(m);
     return print_kernels();

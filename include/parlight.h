@@ -82,6 +82,7 @@ typedef struct pl_model_info {
     int64_t n_params;        /* parameters in the file's tensors */
     int64_t file_size;       /* bytes */
     size_t arena_bytes;      /* the executor's planned working memory */
+    double anchor[3];        /* intensity anchor w, b (stops), gamma; w = b = 0: off */
 } pl_model_info;
 
 /* Fills *info; the strings belong to the model. */
@@ -90,6 +91,13 @@ int pl_model_get_info(const pl_model *model, pl_model_info *info);
 /* Worker threads for the next estimates (1 = the calling thread only). Results do not depend
  * on the count. */
 int pl_model_set_threads(pl_model *model, int n_threads);
+
+/* Intensity anchor (docs/LIGHTING.md): each estimate's light colours and ambient are scaled by
+ * 2^(w ev + b), where ev = log2(the frame's mean linear luminance, pixels linearised as
+ * (v/255)^gamma, over the lighting's mean luminance over the sphere). w = 0 keeps the network's
+ * intensity, w = 1 takes the frame's; b shifts by stops. The file's `intensity_anchor` metadata
+ * sets it at load (docs/FORMAT.md); w = b = 0 turns it off. w in 0..1, b in -8..8, gamma 1..3. */
+int pl_model_set_anchor(pl_model *model, double w, double b, double gamma);
 
 /* ---- estimation -------------------------------------------------------------------------- */
 

@@ -275,8 +275,9 @@ int pl_eval_score(const pl_lighting *L, const pl_image_f32 *truth, const pl_ligh
     out->rmse = pl_render_rmse(&r, truth);
     out->si_rmse = pl_render_si_rmse(&r, truth);
     const double alpha = pl_render_ls_scale(&r, truth); /* NaN for a black render */
+    out->render_rms = pl_render_rms(&r);
     pl_image_f32_free(&r);
-    if (out->rmse < 0 || out->si_rmse < 0 || alpha < 0)
+    if (out->rmse < 0 || out->si_rmse < 0 || alpha < 0 || out->render_rms < 0)
         return PL_E_ARG; /* message set by the metric */
     out->scale_ev = alpha > 0 ? log2(alpha) : NAN;
     out->angle_deg = NAN;

@@ -6,7 +6,7 @@
  * (the panorama's radiance times k) and in the crop's camera frame (x right, y up, looking
  * along -z), like the ground truth that `parlight crop --gt` writes.
  *
- * Per crop and method, three scores (pl_eval_scores):
+ * Per crop and method, these scores (pl_eval_scores):
  *   rmse, si_rmse  pl_render_rmse / pl_render_si_rmse between the diffuse sphere (size x size,
  *                  light/light.h) lit by the method's lighting and the TRUTH: the diffuse sphere
  *                  lit by the real panorama rotated into the crop's camera frame, times k
@@ -15,6 +15,9 @@
  *                  stops the method's render must be brightened (> 0) or dimmed (< 0) to best
  *                  match the truth, its intensity error without its shape error; NaN when the
  *                  render or that scale is 0.
+ *   render_rms     the RMS of the method's own render (pl_render_rms): with rmse, si_rmse and
+ *                  scale_ev it gives the RMSE the method would score at any other intensity
+ *                  (tools/train/fit_anchor.py).
  *   angle_deg      the angle between the method's primary light (pl_lighting_primary) and the
  *                  ground-truth lights' primary light; NaN when the ground truth has no light.
  *                  A lighting without lights has WebXR's default primary direction (0, 1, 0).
@@ -55,6 +58,7 @@ const char *pl_eval_method_label(int m);
 typedef struct pl_eval_scores {
     double rmse, si_rmse; /* render metrics (light/light.h), on the crop's scale */
     double scale_ev;      /* log2 of the least-squares scale; NaN when undefined */
+    double render_rms;    /* RMS of the method's own render (pl_render_rms) */
     double angle_deg;     /* 0..180, NaN when the ground truth has no light */
 } pl_eval_scores;
 

@@ -91,9 +91,37 @@ int pl_sphere_mask(int size, int x, int y);
  * Negative (PL_E_ARG) when the sizes differ or an image is NULL. */
 double pl_render_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
 double pl_render_si_rmse(const pl_image_f32 *a, const pl_image_f32 *b);
+/* Root mean square of one render over the sphere pixels, all three channels (PL_E_ARG for NULL).
+ * With it the RMSE of any scaled render c * a follows from the si-RMSE without rendering again:
+ * RMSE(c)^2 = si-RMSE^2 + (c - alpha)^2 rms(a)^2 (the residual at alpha is orthogonal to a). */
+double pl_render_rms(const pl_image_f32 *a);
 /* The si-RMSE's scale alpha itself: how much a's intensity must be multiplied by to best match
  * b (NaN when a is all zero, where si-RMSE takes alpha = 1; PL_E_ARG as above). */
 double pl_render_ls_scale(const pl_image_f32 *a, const pl_image_f32 *b);
+
+/* ---- intensity anchor (docs/LIGHTING.md, "Intensity anchor") ----
+ * A network's absolute intensity is its least certain output. The anchor pulls it toward the
+ * frame's own brightness: the lighting is scaled by 2^(w ev + b), ev = log2(r), r = the frame's
+ * mean linear luminance over the lighting's mean luminance over the sphere. w = 0 keeps the
+ * network's intensity (then 2^b is a plain gain), w = 1 replaces it by the frame's; b is in
+ * stops. Luminance is 0.2126 R + 0.7152 G + 0.0722 B throughout. */
+
+/* Mean luminance of the radiance of eq. (4) over the sphere: Y(a) + sum_i Y(c_i) I(s_i) / 4pi
+ * with I = pl_sg_integral. */
+double pl_lighting_mean_luminance(const pl_lighting *L);
+/* Mean linear luminance of the w x h region at (x0, y0) of an 8-bit RGB frame, each value
+ * linearised as (v / 255)^gamma. NaN for a NULL frame, an empty region or gamma <= 0. */
+double pl_frame_mean_luminance(const uint8_t *rgb, size_t stride, int x0, int y0, int w, int h,
+                               double gamma);
+/* log2(frame_lum / pl_lighting_mean_luminance(L)); NaN when either is not finite and > 0. */
+double pl_anchor_ratio_ev(double frame_lum, const pl_lighting *L);
+/* 0 for w in [0, 1], b in [-8, 8] and gamma in [1, 3]; else PL_E_ARG naming the values. */
+int pl_anchor_check(double w, double b, double gamma);
+/* Scales L's light colours and ambient by 2^(w ev + b), ev = pl_anchor_ratio_ev(frame_lum, L),
+ * and returns ev. When ev is NaN (a black frame or a black lighting) L is left as it is: there
+ * is nothing to anchor to. With w in [0, 1] the result's mean luminance lies between the two
+ * means (times 2^b), so it stays finite. */
+double pl_anchor_apply(pl_lighting *L, double frame_lum, double w, double b);
 
 /* Display version of a linear image for PNG: exposure so that the 99th percentile of the pixels'
  * max(r,g,b) (over pixels with any non-zero channel) maps to 1, clip, sRGB OETF, rounded to

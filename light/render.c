@@ -232,6 +232,13 @@ double pl_render_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
     return rmse_scaled(a, b, 1.0);
 }
 
+double pl_render_rms(const pl_image_f32 *a)
+{
+    int rc = same_renders(a, a);
+    if (rc < 0) return rc;
+    return rmse_scaled(a, a, 0.0); /* the RMSE of 0 * a against a */
+}
+
 double pl_render_ls_scale(const pl_image_f32 *a, const pl_image_f32 *b)
 {
     int rc = same_renders(a, b);

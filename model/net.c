@@ -40,6 +40,7 @@
 
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
+#include "light/light.h"
 #include "model/arch.h"
 #include "model/net_s8.h"
 #include "model/observer.h"
@@ -66,6 +67,7 @@ struct pl_model {
     char arch[64], precision[16];
     int n_lights, in_h, in_w, bands, fc_n, dist_hidden;
     float mean[3], std[3];
+    float anchor[3]; /* intensity anchor w, b, gamma (metadata intensity_anchor); w = b = 0: off */
     int64_t n_params;
 
     const float *conv0_w, *conv0_b;
@@ -134,6 +136,17 @@ static int parse_float3(const pl_plm *f, const char *key, int positive, float ou
 bad:
     return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected three %sfloats a,b,c", f->path,
                     key, v, positive ? "positive " : "");
+}
+
+/* The optional intensity_anchor=w,b,gamma (docs/FORMAT.md); absent: off (w = b = 0, gamma 2.2). */
+static int parse_anchor(const pl_plm *f, float anchor[3])
+{
+    anchor[0] = anchor[1] = 0, anchor[2] = 2.2f;
+    if (!pl_plm_meta(f, "intensity_anchor")) return PL_OK;
+    int rc = parse_float3(f, "intensity_anchor", 0, anchor);
+    if (rc == PL_OK && pl_anchor_check(anchor[0], anchor[1], anchor[2]) < 0)
+        rc = pl_error_prefix(PL_E_MODEL, "%s: metadata intensity_anchor", f->path);
+    return rc;
 }
 
 /* Looks up `name`, checks it is f32 with exactly the given dims, counts it as used. */
@@ -422,7 +435,7 @@ int pl_model_load(const char *path, pl_model **out)
         (rc = parse_int(f, "fc", 1, 4096, &m->fc_n)) < 0 ||
         (rc = parse_int(f, "dist_hidden", 1, 4096, &m->dist_hidden)) < 0 ||
         (rc = parse_float3(f, "mean", 0, m->mean)) < 0 ||
-        (rc = parse_float3(f, "std", 1, m->std)) < 0)
+        (rc = parse_float3(f, "std", 1, m->std)) < 0 || (rc = parse_anchor(f, m->anchor)) < 0)
         goto fail;
     if (m->n_lights != 2 && m->n_lights != 3 && m->n_lights != 5) {
         rc = pl_error(PL_E_MODEL, "%s: n_lights=%d, expected 2, 3 or 5", f->path, m->n_lights);
@@ -478,10 +491,21 @@ int pl_model_get_info(const pl_model *m, pl_model_info *info)
     info->input_w = m->in_w;
     info->n_params = m->n_params;
     info->file_size = (int64_t)m->file.map_size;
+    for (int k = 0; k < 3; k++)
+        info->anchor[k] = m->anchor[k];
     /* fp32 on a packed path: the arena, the GEMM scratch and the packed weights */
     info->arena_bytes =
         (m->arena_floats + m->scratch_floats * (size_t)m->scratch_threads + m->wpack_floats) *
         sizeof(float);
+    return PL_OK;
+}
+
+int pl_model_set_anchor(pl_model *m, double w, double b, double gamma)
+{
+    if (!m) return pl_error(PL_E_ARG, "pl_model_set_anchor: model is NULL");
+    int rc = pl_anchor_check(w, b, gamma);
+    if (rc < 0) return rc;
+    m->anchor[0] = (float)w, m->anchor[1] = (float)b, m->anchor[2] = (float)gamma;
     return PL_OK;
 }
 
@@ -793,30 +817,12 @@ static void forward(pl_model *m, int64_t clk)
     pl_prof_mark(m->prof, PL_PROF_HEADS, &clk);
 }
 
-int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, size_t stride,
-                     pl_lighting *out, pl_timing *timing)
+/* The float network on the frame's region (x0, y0, cw, ch) into *out; *t_pre: end of the
+ * preprocessing. */
+static void estimate_f32(pl_model *m, const uint8_t *rgb, size_t stride, int x0, int y0, int cw,
+                         int ch, pl_lighting *out, int64_t *t_pre)
 {
-    if (!m || !rgb || !out) return pl_error(PL_E_ARG, "pl_estimate_rgb8: NULL argument");
-    if (width < 8 || height < 8 || width > PL_IMAGE_MAX_SIDE || height > PL_IMAGE_MAX_SIDE)
-        return pl_error(PL_E_ARG, "frame %dx%d: each side must be in 8..%d", width, height,
-                        PL_IMAGE_MAX_SIDE);
-    if (stride < (size_t)width * 3)
-        return pl_error(PL_E_ARG, "frame stride %zu smaller than 3 x width (%d)", stride, width);
-    const int64_t t0 = pl_now_ns();
     int64_t pt = pl_prof_now(m->prof);
-    if (m->prof) m->prof->frames++;
-    if (m->s8) {
-        int64_t t1;
-        pl_s8_estimate(m->s8, m->pool, rgb, width, height, stride, out, &t1);
-        m->have_latent = 1;
-        if (timing) {
-            timing->preprocess_ms = (double)(t1 - t0) / 1e6;
-            timing->infer_ms = (double)(pl_now_ns() - t1) / 1e6;
-        }
-        return PL_OK;
-    }
-    int x0, y0, cw, ch;
-    pl_crop_to_aspect(width, height, m->in_w, m->in_h, &x0, &y0, &cw, &ch);
     pl_resize_job rj = {rgb, stride, x0, y0, cw, ch, m->x_in, m->in_w, m->in_h};
     pl_pool_for(m->pool, m->in_h, pl_resize_job_rows, &rj);
     const size_t plane = (size_t)m->in_h * m->in_w;
@@ -825,11 +831,9 @@ int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, siz
         float *x = m->x_in + c * plane;
         for (size_t i = 0; i < plane; i++) x[i] = x[i] * a + b;
     }
-    const int64_t t1 = pl_now_ns();
+    *t_pre = pl_now_ns();
     pl_prof_mark(m->prof, PL_PROF_PRE, &pt);
     forward(m, pt);
-    m->have_latent = 1;
-    const int64_t t2 = pl_now_ns();
 
     memset(out, 0, sizeof *out);
     out->n_lights = m->n_lights;
@@ -841,9 +845,34 @@ int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, siz
         L->solid_angle_sr = m->out_size[i];
     }
     memcpy(out->ambient, m->out_amb, sizeof out->ambient);
+}
+
+int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, size_t stride,
+                     pl_lighting *out, pl_timing *timing)
+{
+    if (!m || !rgb || !out) return pl_error(PL_E_ARG, "pl_estimate_rgb8: NULL argument");
+    if (width < 8 || height < 8 || width > PL_IMAGE_MAX_SIDE || height > PL_IMAGE_MAX_SIDE)
+        return pl_error(PL_E_ARG, "frame %dx%d: each side must be in 8..%d", width, height,
+                        PL_IMAGE_MAX_SIDE);
+    if (stride < (size_t)width * 3)
+        return pl_error(PL_E_ARG, "frame stride %zu smaller than 3 x width (%d)", stride, width);
+    const int64_t t0 = pl_now_ns();
+    int64_t t1;
+    if (m->prof) m->prof->frames++;
+    /* the region the network sees: both executors crop the frame to the model's aspect */
+    int x0, y0, cw, ch;
+    pl_crop_to_aspect(width, height, m->in_w, m->in_h, &x0, &y0, &cw, &ch);
+    if (m->s8)
+        pl_s8_estimate(m->s8, m->pool, rgb, width, height, stride, out, &t1);
+    else
+        estimate_f32(m, rgb, stride, x0, y0, cw, ch, out, &t1);
+    m->have_latent = 1;
+    if (m->anchor[0] != 0 || m->anchor[1] != 0)
+        pl_anchor_apply(out, pl_frame_mean_luminance(rgb, stride, x0, y0, cw, ch, m->anchor[2]),
+                        m->anchor[0], m->anchor[1]);
     if (timing) {
         timing->preprocess_ms = (double)(t1 - t0) / 1e6;
-        timing->infer_ms = (double)(t2 - t1) / 1e6;
+        timing->infer_ms = (double)(pl_now_ns() - t1) / 1e6;
     }
     return PL_OK;
 }
