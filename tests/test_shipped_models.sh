@@ -3,7 +3,7 @@
 # they load, stay within the size limits (float <= 40 MB per repo rules, int8 <= 9 MB), say they
 # were trained (provenance), and the C float path computes on them what PyTorch computes from the
 # same file's tensors (tools/export.py:folded_forward in float64, relative L2 <= 1e-4 per output)
-# on the sample frames, each centre-cropped and resized to the model's input with PIL first, so
+# on the sample frames (the intensity anchor off), each centre-cropped and resized to the model's input with PIL first, so
 # that both sides read the same pixels. The int8 model runs and stays near the float one.
 set -u
 P="$BUILD/parlight"
@@ -22,7 +22,10 @@ size() { stat -c %s "$1"; }
 grep -q "precision    fp32" "$T/info-f" || fail "$F is not fp32"
 grep -q "precision    int8" "$T/info-q" || fail "$Q is not int8"
 grep -q "trained by tools/train/train.py" "$T/info-f" || fail "$F provenance: not a trained model"
-echo "ok  sizes $(size "$F") and $(size "$Q") bytes, both load, provenance says trained"
+[ "$(grep '^anchor' "$T/info-f")" = "$(grep '^anchor' "$T/info-q")" ] ||
+    fail "the float and int8 files' intensity anchors differ: $(grep -h '^anchor' "$T"/info-?)"
+echo "ok  sizes $(size "$F") and $(size "$Q") bytes, both load, provenance says trained," \
+    "one intensity anchor ($(grep '^anchor' "$T/info-f" | sed 's/^anchor *//'))"
 
 if ! /usr/bin/python3 -c 'import torch, numpy, PIL' 2>/dev/null; then
     echo "skip: /usr/bin/python3 lacks torch/numpy/PIL for the PyTorch comparison"
@@ -44,7 +47,9 @@ for i, p in enumerate(sys.argv[3:]):
         im = im.crop(((W - cw) // 2, (H - ch) // 2, (W - cw) // 2 + cw, (H - ch) // 2 + ch))
         im.resize((w, h), Image.BOX).save(f"{sys.argv[2]}/f{i}.png")
 PY
-"$P" estimate --model "$F" --input "$T" >"$T/c.jsonl" 2>"$T/err" || fail "estimate $F: $(cat "$T/err")"
+# --anchor off: the network's own outputs (the model's intensity anchor is not PyTorch's)
+"$P" estimate --model "$F" --input "$T" --anchor off >"$T/c.jsonl" 2>"$T/err" ||
+    fail "estimate $F: $(cat "$T/err")"
 /usr/bin/python3 - "$F" "$T" <<'PY' || fail "C float path differs from PyTorch on $F"
 import glob, json, os, sys
 sys.path.insert(0, "tools")

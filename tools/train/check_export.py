@@ -46,8 +46,8 @@ def main(argv=None):
         frame = golden.read_frame(args.frame, h, w)
         with torch.no_grad():
             ref = model(preprocess(frame, dtype=torch.float64))
-        r = subprocess.run([args.parlight, "estimate", "--model", args.plm, "--input", args.frame],
-                           capture_output=True, text=True)
+        r = subprocess.run([args.parlight, "estimate", "--model", args.plm, "--input", args.frame,
+                            "--anchor", "off"], capture_output=True, text=True)
         if r.returncode != 0:
             raise RuntimeError(f"parlight estimate: exit {r.returncode}: {r.stderr.strip()}")
         got = json.loads(r.stdout.splitlines()[0])
