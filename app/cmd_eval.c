@@ -155,7 +155,10 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
                                   &j->pred, &tm);
         if (rc == 0 && (rc = pl_lighting_check(&j->pred)) < 0)
             pl_error_prefix(rc, "the model's estimate is not a valid lighting");
-        if (rc < 0) record_error(j, rc);
+        if (rc < 0) {
+            record_error(j, rc);
+            continue;
+        }
         int x0, y0, cw, ch; /* the region the model saw */
         pl_crop_to_aspect(j->ldr.width, j->ldr.height, mi->input_w, mi->input_h, &x0, &y0, &cw,
                           &ch);
