@@ -9,19 +9,11 @@
 
 #define FOUR_PI (4.0 * M_PI)
 
-static double luminance(double r, double g, double b)
-{
-    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
-}
-
 double pl_lighting_mean_luminance(const pl_lighting *L)
 {
-    double y = luminance(L->ambient[0], L->ambient[1], L->ambient[2]);
-    for (int i = 0; i < L->n_lights && i < PL_MAX_LIGHTS; i++) {
-        const pl_light *l = &L->lights[i];
-        y += luminance(l->rgb[0], l->rgb[1], l->rgb[2]) * pl_sg_integral(l->solid_angle_sr) /
-             FOUR_PI;
-    }
+    double y = pl_luminance(L->ambient[0], L->ambient[1], L->ambient[2]);
+    for (int i = 0; i < L->n_lights && i < PL_MAX_LIGHTS; i++)
+        y += pl_light_energy(&L->lights[i]) / FOUR_PI;
     return y;
 }
 
@@ -39,7 +31,7 @@ double pl_frame_mean_luminance(const uint8_t *rgb, size_t stride, int x0, int y0
             for (int c = 0; c < 3; c++)
                 sum[c] += lut[row[3 * x + c]];
     }
-    return luminance(sum[0], sum[1], sum[2]) / ((double)w * h);
+    return pl_luminance(sum[0], sum[1], sum[2]) / ((double)w * h);
 }
 
 double pl_anchor_ratio_ev(double frame_lum, const pl_lighting *L)

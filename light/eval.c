@@ -85,11 +85,6 @@ int pl_eval_baseline_ambient(const pl_image_u8 *ldr, double gamma, pl_lighting *
     return 0;
 }
 
-static double luminance(const double rgb[3])
-{
-    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
-}
-
 /* Unit direction (camera frame) through continuous pixel coordinates (x, y) of the crop. */
 static void pinhole_dir(const pl_crop_params *p, double x, double y, double d[3])
 {
@@ -122,7 +117,7 @@ int pl_eval_baseline_brightest(const pl_image_u8 *ldr, const pl_crop_params *p, 
             int x1 = x0 + cs < W ? x0 + cs : W, y1 = y0 + cs < H ? y0 + cs : H;
             double s[3];
             sum_linear(ldr, lut, x0, y0, x1, y1, s);
-            double mean_y = luminance(s) / ((double)(x1 - x0) * (y1 - y0));
+            double mean_y = pl_luminance(s[0], s[1], s[2]) / ((double)(x1 - x0) * (y1 - y0));
             if (mean_y > best) best = mean_y, bx = x0, by = y0;
         }
     const int bx1 = bx + cs < W ? bx + cs : W, by1 = by + cs < H ? by + cs : H;
@@ -132,7 +127,7 @@ int pl_eval_baseline_brightest(const pl_image_u8 *ldr, const pl_crop_params *p, 
         const uint8_t *row = ldr->data + (size_t)y * ldr->stride;
         for (int x = bx; x < bx1; x++) {
             const double rgb[3] = {lut[row[3 * x]], lut[row[3 * x + 1]], lut[row[3 * x + 2]]};
-            double w = luminance(rgb);
+            double w = pl_luminance(rgb[0], rgb[1], rgb[2]);
             wsum += w;
             cx += w * (x + 0.5);
             cy += w * (y + 0.5);

@@ -14,7 +14,7 @@
 
 static double lum(const float *p)
 {
-    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    return pl_luminance(p[0], p[1], p[2]);
 }
 
 void pl_extract_default_params(pl_extract_params *p)

@@ -21,6 +21,15 @@ void pl_lights_radiance(const pl_lighting *L, const float u[3], float rgb[3]);
  * 2 pi sigma (1 - exp(-2 / sigma)), sigma = s / 4pi  (about s / 2 for small s). */
 double pl_sg_integral(double solid_angle_sr);
 
+/* Luminance of linear RGB, the one weighting of light/ (Rec. 709): 0.2126 r + 0.7152 g +
+ * 0.0722 b. */
+static inline double pl_luminance(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+/* A light's energy: pl_luminance(c) * pl_sg_integral(s) (the primary-light and anchor measure). */
+double pl_light_energy(const pl_light *l);
+
 /* Checks a lighting for use by the functions here: 0 <= n_lights <= PL_MAX_LIGHTS, finite
  * values, unit-ish directions (|dir| in [0.5, 2], normalised by users), distance > 0, solid
  * angle > 0, rgb and ambient >= 0. Returns 0 or PL_E_ARG naming light and field. */

@@ -17,6 +17,11 @@ double pl_sg_integral(double solid_angle_sr)
     return 2.0 * M_PI * sigma * -expm1(-2.0 / sigma);
 }
 
+double pl_light_energy(const pl_light *l)
+{
+    return pl_luminance(l->rgb[0], l->rgb[1], l->rgb[2]) * pl_sg_integral(l->solid_angle_sr);
+}
+
 int pl_lighting_check(const pl_lighting *L)
 {
     if (!L) return pl_error(PL_E_ARG, "lighting is NULL");
@@ -196,9 +201,7 @@ int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3])
     double best_e = -1;
     if (!dir || !rgb) return pl_error(PL_E_ARG, "pl_lighting_primary: NULL output");
     for (int i = 0; L && i < L->n_lights && i < PL_MAX_LIGHTS; i++) {
-        const pl_light *l = &L->lights[i];
-        double lum = 0.2126 * l->rgb[0] + 0.7152 * l->rgb[1] + 0.0722 * l->rgb[2];
-        double e = lum * pl_sg_integral(l->solid_angle_sr);
+        double e = pl_light_energy(&L->lights[i]);
         if (!(e == e)) e = 0;
         if (e > best_e) {
             best_e = e;

@@ -136,9 +136,7 @@ static void hungarian(int n, const double *cost, int *row_to_col)
 
 static double light_energy(const pl_light *l)
 {
-    double lum =
-        0.2126 * (double)l->rgb[0] + 0.7152 * (double)l->rgb[1] + 0.0722 * (double)l->rgb[2];
-    double e = lum * pl_sg_integral(l->solid_angle_sr);
+    double e = pl_light_energy(l);
     return e > 0 ? e : 0;
 }
 
