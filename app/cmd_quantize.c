@@ -19,7 +19,7 @@ static void help(FILE *f)
         "usage: parlight quantize --model F.plm --calib PATH --out Q.plm\n"
         "                         [--method minmax|percentile|entropy|mse] [--percentile P]\n"
         "                         [--keep-float LAYER,...] [--max-frames K] [--headroom F]\n"
-        "                         [--force]\n\n"
+        "                         [--block-floor F] [--force]\n\n"
         "Runs the float model F.plm over the calibration frames (an image, a video or a\n"
         "directory of frames), picks every activation's int8 range with the method, folds the\n"
         "batch norms, the input normalisation and the per-segment scales into per-output-channel\n"
@@ -32,11 +32,16 @@ static void help(FILE *f)
         "  --calib PATH        calibration frames; keep them disjoint from the check frames\n"
         "  --method M          minmax (default), percentile, entropy (KL) or mse\n"
         "  --percentile P      for --method percentile, in (50, 100] (default 99.99)\n"
-        "  --keep-float L,...  layers kept float: fc (the heads are always float)\n"
+        "  --keep-float L,...  layers computed in float on float inputs, their weights stored\n"
+        "                      int8 per row: fc (on the exact band means), transition1,\n"
+        "                      transition2, transition3 (the heads are always float)\n"
         "  --max-frames K      use at most K good frames (default: all)\n"
         "  --headroom F        widen every calibrated range F times, F in [1, 16] (default 1):\n"
         "                      coarser steps, but frames beyond the calibration frames'\n"
         "                      ranges do not saturate\n"
+        "  --block-floor F     a dense-block channel's step is at least F times the widest\n"
+        "                      channel's step of its layer, F in [0, 1] (default 0.25):\n"
+        "                      larger F, fewer narrow channels that new frames overflow\n"
         "  --out Q.plm         the int8 model to write\n"
         "  --force             replace Q.plm if it exists\n"
         "  -v, --verbose       one line per calibration frame on stderr\n");
@@ -61,6 +66,7 @@ int cmd_quantize(int argc, char **argv)
                                          {"keep-float", required_argument, 0, 'k'},
                                          {"max-frames", required_argument, 0, 'n'},
                                          {"headroom", required_argument, 0, 'H'},
+                                         {"block-floor", required_argument, 0, 'B'},
                                          {"out", required_argument, 0, 'o'},
                                          {"force", no_argument, 0, 'f'},
                                          {"verbose", no_argument, 0, 'v'},
@@ -69,7 +75,7 @@ int cmd_quantize(int argc, char **argv)
     pl_quantize_opts o = {.method = PL_CALIB_MINMAX, .percentile = 99.99};
     int force = 0, verbose = 0, c;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:c:M:p:k:n:H:o:fvh", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:c:M:p:k:n:H:B:o:fvh", opts, NULL)) != -1) {
         switch (c) {
         case 'm':
             o.float_path = optarg;
@@ -109,6 +115,19 @@ int cmd_quantize(int argc, char **argv)
                         optarg);
                 return 2;
             }
+            break;
+        }
+        case 'B': {
+            char *end;
+            errno = 0;
+            o.block_floor = strtod(optarg, &end);
+            if (errno || end == optarg || *end || !(o.block_floor >= 0 && o.block_floor <= 1)) {
+                fprintf(stderr,
+                        "parlight quantize: --block-floor '%s': expected a number in [0, 1]\n",
+                        optarg);
+                return 2;
+            }
+            o.block_floor_set = 1;
             break;
         }
         case 'n':

@@ -61,6 +61,11 @@ struct s8_trans {
     struct s8_layer conv;
     const int8_t *lo, *hi;
     int cin;
+    /* kept float by the quantiser (--keep-float transitionN): the norm + ReLU as
+     * max(0, deq[c]*q + deq[cin + c]), the 1x1 conv in float with int8-stored weights w8
+     * [cin/2][cin] and a scale per row ws; conv keeps only its output grid (out_scale, out_zps) */
+    const float *deq, *ws;
+    const int8_t *w8;
 };
 
 struct pl_s8 {
@@ -74,7 +79,10 @@ struct pl_s8 {
     struct s8_trans trans[N_BLOCKS - 1];
     const int8_t *n5_lo, *n5_hi;
     const float *n5_deq;        /* [2][1024]: z = A[c]*zq + B[c] */
-    const float *fc_wf, *fc_bf; /* --keep-float fc: float FC instead of fc (s8) */
+    /* --keep-float fc: a float FC on the exact z, weights float (fc_wf) or int8-stored with a
+     * scale per row (fc_w8, fc_ws); fc_bf its float bias. NULL: the int8 fc */
+    const float *fc_wf, *fc_ws, *fc_bf;
+    const int8_t *fc_w8;
     const float *dir_w, *dir_b, *size_w, *size_b, *rgb_w, *rgb_b, *amb_w, *amb_b;
     float *d1_w; /* dequantised at load from s8 + per-row scales */
     const float *d1_b, *d2_w, *d2_b;
@@ -89,6 +97,8 @@ struct pl_s8 {
     uint8_t *a1, *a2;
     size_t arena_bytes;
     int8_t *buf_a, *buf_b, *t, *zq, *hq;
+    float *tf_in, *tf_out; /* kept-float transitions: pooled input, conv output (or NULL) */
+    size_t tf_in_n, tf_out_n;
     float *fin, *z, *h, *out_dir, *out_size, *out_rgb, *out_amb, *dist_in, *dist_h, *out_dist;
     int z_len;
 
@@ -100,6 +110,11 @@ struct pl_s8 {
 };
 
 /* ---- loading ----------------------------------------------------------------------------- */
+
+static size_t max_sz(size_t a, size_t b)
+{
+    return a > b ? a : b;
+}
 
 struct binder {
     pl_s8 *s;
@@ -268,6 +283,21 @@ static const float *bind_f32(struct binder *b, const char *name, int ndim, int d
     return t->data;
 }
 
+/* f32 [n] per-row weight scales, each finite and > 0. */
+static const float *bind_scales(struct binder *b, const char *name, int n)
+{
+    const float *sc = bind_f32(b, name, 1, n, 0);
+    for (int i = 0; sc && i < n; i++)
+        if (!(sc[i] > 0) || sc[i] > 1e9f) {
+            b->rc = pl_error(PL_E_MODEL,
+                             "%s: tensor '%s': element %d is %g, expected a finite scale in "
+                             "(0, 1e9]",
+                             b->s->file->path, name, i, (double)sc[i]);
+            return NULL;
+        }
+    return sc;
+}
+
 static int bind_all(pl_s8 *s)
 {
     struct binder bb = {.s = s};
@@ -335,18 +365,36 @@ static int bind_all(pl_s8 *s)
             struct s8_trans *T = &s->trans[blk];
             T->cin = ctot;
             const int cnext = block_c0[blk + 1] + GROWTH * block_layers[blk + 1];
-            snprintf(name, sizeof name, "transition%d.clamp", blk + 1);
-            if (bind_clamp(b, name, ctot, &T->lo, &T->hi) < 0) return b->rc;
-            snprintf(name, sizeof name, "transition%d.conv", blk + 1);
-            if (bind_layer(b, name, 4, (const int[4]){ctot / 2, 1, 1, ctot}, 0, &T->conv) < 0)
-                return b->rc;
-            conv_params(&T->conv, 0, 0, 1, 0);
+            snprintf(name, sizeof name, "transition%d.conv.weight", blk + 1);
+            const pl_tensor *tw = pl_plm_tensor(f, name);
             T->conv.in = (nn_dims){1, h / 2, w / 2, ctot};
             T->conv.filt = (nn_dims){ctot / 2, 1, 1, ctot};
             T->conv.out = (nn_dims){1, h / 2, w / 2, ctot / 2};
             T->conv.in_stride = ctot;
             T->conv.out_stride = cnext;
-            if (check_layer(s, name, &T->conv, 1) < 0) return PL_E_MODEL;
+            if (tw && tw->ndim == 2) { /* kept float (--keep-float transitionN) */
+                const pl_tensor *w8 = find(b, name, PL_DT_S8, 2, ctot / 2, ctot, 0, 0);
+                if (!w8) return b->rc;
+                T->w8 = w8->data;
+                b->s->n_params += (int64_t)w8->count;
+                snprintf(name, sizeof name, "transition%d.conv.wscale", blk + 1);
+                if (!(T->ws = bind_scales(b, name, ctot / 2))) return b->rc;
+                snprintf(name, sizeof name, "transition%d.norm.dequant", blk + 1);
+                T->deq = bind_f32(b, name, 2, 2, ctot);
+                snprintf(name, sizeof name, "transition%d.conv.out", blk + 1);
+                if (bind_act(b, name, ctot / 2, 0, &T->conv) < 0) return b->rc;
+                const size_t hwp = (size_t)(h / 2) * (size_t)(w / 2);
+                s->tf_in_n = max_sz(s->tf_in_n, hwp * (size_t)ctot);
+                s->tf_out_n = max_sz(s->tf_out_n, hwp * (size_t)(ctot / 2));
+            } else {
+                snprintf(name, sizeof name, "transition%d.clamp", blk + 1);
+                if (bind_clamp(b, name, ctot, &T->lo, &T->hi) < 0) return b->rc;
+                snprintf(name, sizeof name, "transition%d.conv", blk + 1);
+                if (bind_layer(b, name, 4, (const int[4]){ctot / 2, 1, 1, ctot}, 0, &T->conv) < 0)
+                    return b->rc;
+                conv_params(&T->conv, 0, 0, 1, 0);
+                if (check_layer(s, name, &T->conv, 1) < 0) return PL_E_MODEL;
+            }
             h /= 2;
             w /= 2;
         }
@@ -355,8 +403,16 @@ static int bind_all(pl_s8 *s)
     s->n5_deq = bind_f32(b, "norm5.dequant", 2, 2, FEATURES);
     const int zl = FEATURES * sh->bands;
     const pl_tensor *fw = pl_plm_tensor(f, "fc.weight");
+    const pl_tensor *fbias = pl_plm_tensor(f, "fc.bias");
     if (fw && fw->dtype == PL_DT_F32) { /* kept float by the quantiser (--keep-float fc) */
         s->fc_wf = bind_f32(b, "fc.weight", 2, sh->fc_n, zl);
+        s->fc_bf = bind_f32(b, "fc.bias", 1, sh->fc_n, 0);
+    } else if (fbias && fbias->dtype == PL_DT_F32) { /* the same, weights stored int8 */
+        const pl_tensor *w8 = find(b, "fc.weight", PL_DT_S8, 2, sh->fc_n, zl, 0, 0);
+        if (!w8) return b->rc;
+        s->fc_w8 = w8->data;
+        s->n_params += (int64_t)w8->count;
+        if (!(s->fc_ws = bind_scales(b, "fc.wscale", sh->fc_n))) return b->rc;
         s->fc_bf = bind_f32(b, "fc.bias", 1, sh->fc_n, 0);
     } else {
         struct s8_layer *F = &s->fc;
@@ -415,11 +471,6 @@ static int bind_all(pl_s8 *s)
     return PL_OK;
 }
 
-static size_t max_sz(size_t a, size_t b)
-{
-    return a > b ? a : b;
-}
-
 /* Every int8 conv / fc in forward order, each with how its A is built: a_rows for the stem (3
  * channels: the 7 horizontal taps folded into 21 channels), a_pack for the 1x1s and the fc,
  * a_pad for the 3x3s. */
@@ -436,12 +487,12 @@ static int all_layers(pl_s8 *s, struct s8_layer **L)
             L[n] = &s->layers[li].c2;
             L[n++]->a_kind = PL_S8_A_PAD;
         }
-        if (blk < N_BLOCKS - 1) {
+        if (blk < N_BLOCKS - 1 && !s->trans[blk].w8) {
             L[n] = &s->trans[blk].conv;
             L[n++]->a_kind = PL_S8_A_PACK;
         }
     }
-    if (!s->fc_wf) {
+    if (!s->fc_bf) {
         L[n] = &s->fc;
         L[n++]->a_kind = PL_S8_A_PACK;
     }
@@ -502,8 +553,8 @@ static int plan_arena(pl_s8 *s)
                max_sz(BOTTLENECK * hw1, max_sz(256 * hw2, max_sz(512 * hw3, 1024 * hw4))));
     s->z_len = FEATURES * s->sh.bands;
     const size_t zl = (size_t)s->z_len, fc = (size_t)s->sh.fc_n;
-    const size_t floats =
-        zl + fc + 3 * N + N + 3 * N + 3 + zl + 3 * N + (size_t)s->sh.dist_hidden + N;
+    const size_t floats = zl + fc + 3 * N + N + 3 * N + 3 + zl + 3 * N +
+                          (size_t)s->sh.dist_hidden + N + s->tf_in_n + s->tf_out_n;
     const size_t total = up64(a) + up64(b) + up64(t) + up64(zl) + up64(fc) +
                          up64(floats * sizeof(float)) + up64(s->a1_bytes) + up64(s->a2_bytes);
     s->arena = aligned_alloc(64, total);
@@ -540,6 +591,10 @@ static int plan_arena(pl_s8 *s)
     q += s->sh.dist_hidden;
     s->out_dist = q;
     q += N;
+    s->tf_in = s->tf_in_n ? q : NULL;
+    q += s->tf_in_n;
+    s->tf_out = s->tf_out_n ? q : NULL;
+    q += s->tf_out_n;
     p = (uint8_t *)q;
     p = s->arena + up64((size_t)(p - s->arena));
     s->a1 = s->a1_bytes ? p : NULL;
@@ -818,6 +873,87 @@ static void fc_f32(pl_pool *pool, const float *in, int n_in, const float *w, con
     }
 }
 
+/* w . x for int8-stored weights and float x: eight partial sums in a fixed order (so the same
+ * bits on every path and thread count, and a loop the compiler can vectorise). */
+static float dot_w8(const int8_t *w, const float *x, int n)
+{
+    float acc[8] = {0};
+    int i = 0;
+    for (; i + 8 <= n; i += 8)
+        for (int k = 0; k < 8; k++)
+            acc[k] += (float)w[i + k] * x[i + k];
+    float sum = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+    for (; i < n; i++)
+        sum += (float)w[i] * x[i];
+    return sum;
+}
+
+/* The fc kept float with int8-stored weights: h[o] = relu(ws[o] * (w8[o] . z) + b[o]). */
+struct fcw8_job {
+    const pl_s8 *s;
+};
+
+static void fc_w8_rows(void *ctx, int begin, int end)
+{
+    const pl_s8 *s = ((const struct fcw8_job *)ctx)->s;
+    for (int o = begin; o < end; o++) {
+        const float v =
+            s->fc_ws[o] * dot_w8(s->fc_w8 + (size_t)o * s->z_len, s->z, s->z_len) + s->fc_bf[o];
+        s->h[o] = v > 0.0f ? v : 0.0f;
+    }
+}
+
+/* A transition kept float (--keep-float transitionN): the block buffer's channels through
+ * max(0, A*q + B) (its norm and ReLU on the dequantised value) and the 2x2 average pool into
+ * `pooled` (over pooled pixels), then the float 1x1 conv, its output rounded to the next block's
+ * grid (over output channels). Each value is one thread's fixed-order sum: the same bits for
+ * any thread count and kernel path. */
+struct tf_job {
+    const struct s8_trans *T;
+    const int8_t *in; /* the block buffer, NHWC, pixel stride T->cin */
+    int h, w;         /* the block's size, before the pool */
+    float *pooled;    /* [(h/2)*(w/2)][cin] */
+    int8_t *out;      /* the next block's buffer, pixel stride out_stride */
+};
+
+static void tf_pool(void *ctx, int begin, int end)
+{
+    const struct tf_job *j = ctx;
+    const int c = j->T->cin, wp = j->w / 2;
+    const float *A = j->T->deq, *B = A + c;
+    for (int p = begin; p < end; p++) {
+        const int y = 2 * (p / wp), x = 2 * (p % wp);
+        float *o = j->pooled + (size_t)p * c;
+        for (int ch = 0; ch < c; ch++)
+            o[ch] = 0.0f;
+        for (int d = 0; d < 4; d++) {
+            const int8_t *q = j->in + ((size_t)(y + d / 2) * j->w + (size_t)(x + d % 2)) * c;
+            for (int ch = 0; ch < c; ch++) {
+                const float v = A[ch] * (float)q[ch] + B[ch];
+                o[ch] += v > 0.0f ? v : 0.0f;
+            }
+        }
+        for (int ch = 0; ch < c; ch++)
+            o[ch] *= 0.25f;
+    }
+}
+
+static void tf_conv(void *ctx, int begin, int end)
+{
+    const struct tf_job *j = ctx;
+    const struct s8_layer *L = &j->T->conv;
+    const int c = j->T->cin, np = (j->h / 2) * (j->w / 2);
+    for (int o = begin; o < end; o++) {
+        const int8_t *wr = j->T->w8 + (size_t)o * c;
+        const float k = j->T->ws[o] / L->out_scale[o];
+        for (int p = 0; p < np; p++) {
+            float q = rintf(k * dot_w8(wr, j->pooled + (size_t)p * c, c)) + L->out_zps[o];
+            q = q < -128.0f ? -128.0f : q > 127.0f ? 127.0f : q;
+            j->out[(size_t)p * L->out_stride + o] = (int8_t)q;
+        }
+    }
+}
+
 static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
 {
     const int H = s->sh.in_h, W = s->sh.in_w;
@@ -883,7 +1019,22 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
             }
         }
         const nn_dims bd = {1, h, w, ctot};
-        if (b < N_BLOCKS - 1 && s->k->s8.packed) {
+        if (b < N_BLOCKS - 1 && s->trans[b].w8) {
+            const struct s8_trans *T = &s->trans[b];
+            struct tf_job tj = {T, cur, h, w, s->tf_in, next};
+            pl_pool_for(pool, (h / 2) * (w / 2), tf_pool, &tj);
+            pl_pool_for(pool, ctot / 2, tf_conv, &tj);
+            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
+            h /= 2;
+            w /= 2;
+            if (s->observer) {
+                snprintf(name, sizeof name, "transition%d.conv", b + 1);
+                observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
+            }
+            int8_t *tmp = cur;
+            cur = next;
+            next = tmp;
+        } else if (b < N_BLOCKS - 1 && s->k->s8.packed) {
             /* clamp + 2x2 average pool straight into the transition conv's A */
             const struct s8_trans *T = &s->trans[b];
             const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
@@ -973,7 +1124,9 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
                     sum += cur[((size_t)y * w + x) * FEATURES + c];
             const int32_t avg = sum > 0 ? (sum + n / 2) / n : (sum - n / 2) / n;
             s->zq[c * bands + k] = (int8_t)avg;
-            s->z[c * bands + k] = s->n5_deq[c] * (float)avg + s->n5_deq[FEATURES + c];
+            /* a float fc reads the exact mean; the int8 fc needs it on the int8 grid */
+            const float mean = s->fc_bf ? (float)sum / (float)n : (float)avg;
+            s->z[c * bands + k] = s->n5_deq[c] * mean + s->n5_deq[FEATURES + c];
         }
     pl_prof_mark(s->prof, PL_PROF_NORM5, &t);
     if (s->observer) s->observer(s->observer_ctx, "z", s->z, s->z_len, 1, 1, NULL);
@@ -981,6 +1134,9 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
     const int N = s->sh.n_lights, fcn = s->sh.fc_n;
     if (s->fc_wf) {
         fc_f32(pool, s->z, s->z_len, s->fc_wf, s->fc_bf, fcn, 1, s->h);
+    } else if (s->fc_w8) {
+        struct fcw8_job fj = {s};
+        pl_pool_for(pool, fcn, fc_w8_rows, &fj);
     } else {
         layer(s, pool, S8_FC, &s->fc, s->zq, s->hq);
         for (int i = 0; i < fcn; i++)

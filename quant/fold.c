@@ -28,10 +28,10 @@ int pl_qparams_clipped(double lo, double hi, pl_qparams *q)
 {
     if (!isfinite(lo) || !isfinite(hi) || lo > hi)
         return pl_error(PL_E_ARG, "activation range [%g, %g]: expected finite lo <= hi", lo, hi);
-    double s = (hi - lo) / 255.0;
+    double s = (hi - lo) / 254.0;
     const double mag = fmax(fabs(lo), fabs(hi));
     if (!(s > 1e-12) || s < mag / 32000.0) s = fmax(1e-12, mag / 32000.0); /* zero point bound */
-    const double z = round(-128.0 - lo / s);
+    const double z = ceil(-128.0 - lo / s - 1e-9);
     q->scale = (float)s;
     q->zero_point = (int32_t)(z < -32767 ? -32767 : z > 32767 ? 32767 : z);
     return PL_OK;

@@ -46,9 +46,13 @@ typedef struct pl_preact {
  * A zero-width range gets a tiny positive scale. PL_E_ARG for non-finite bounds. */
 int pl_qparams_from_range(double lo, double hi, int relu, pl_qparams *q);
 
-/* int8 quantisation of exactly [lo, hi] (not widened to 0): scale = (hi - lo)/255, zero point
- * round(-128 - lo/scale), which may lie outside the int8 range (|zero point| <= 32767): such a
- * zero point only enters the producer's bias and the consumers' folds (docs/QUANT.md). */
+/* int8 quantisation of [lo, hi] (not widened to 0): scale = (hi - lo)/254, zero point
+ * ceil(-128 - lo/scale), so the first level scale*(-128 - zero point) is at or below lo and the
+ * last at or above hi: a range that starts at its consumers' clamp point t never reads as a value
+ * above t (a rounded zero point could put the first level up to half a step above it, and every
+ * clipped value then reached the consumers as a(level - t) > 0). The zero point may lie outside
+ * the int8 range (|zero point| <= 32767; the scale is coarsened to keep it there): it only
+ * enters the producer's bias and the consumers' folds (docs/QUANT.md). */
 int pl_qparams_clipped(double lo, double hi, pl_qparams *q);
 
 /* relu(a*x + b) on input quantised with `in` (see above). */

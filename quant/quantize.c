@@ -106,10 +106,10 @@ static int consumer_bounds(const pl_plm *f, int blk, double *lo, double *hi)
 #define FLOOR_RELU 0.5
 #define FLOOR_BLOCK 0.25
 
-static void floor_scales(struct acts *a, int i)
+static void floor_scales(struct acts *a, int i, double block_floor)
 {
     double f = FLOOR_RELU;
-    if (a->block[i] >= 0) f = FLOOR_BLOCK;
+    if (a->block[i] >= 0) f = block_floor;
     if (!strcmp(a->names[i], "fc")) f = FLOOR_FC;
     double mx = 0;
     for (int k = 0; k < a->channels[i]; k++)
@@ -171,6 +171,7 @@ struct qctx {
     pl_plm_writer *w;
     const struct acts *a;
     int keep_fc;
+    int keep_trans[N_BLOCKS - 1]; /* --keep-float transitionN */
 };
 
 static const float *tensor_f32(const struct qctx *q, const char *name, size_t count, int *rc)
@@ -300,6 +301,65 @@ static int copy_f32(struct qctx *q, const char *name)
     return pl_plm_writer_add(q->w, name, PL_DT_F32, t->ndim, t->dims, t->data, 0.0f, 0);
 }
 
+/* prefix.weight (s8 [rows][cols]) and prefix.wscale (f32 [rows]): a float layer's weights stored
+ * as int8 with a symmetric scale per row, max|w|/127 (the layer still computes in float). */
+static int add_rows_s8(struct qctx *q, const char *prefix, int rows, int cols, const float *w)
+{
+    char name[PL_PLM_NAME_MAX];
+    int8_t *wq = malloc((size_t)rows * cols);
+    float *ws = malloc((size_t)rows * sizeof *ws);
+    int rc = (!wq || !ws) ? pl_error(PL_E_NOMEM, "out of memory") : PL_OK;
+    for (int r = 0; rc == PL_OK && r < rows; r++) {
+        const float *row = w + (size_t)r * cols;
+        double mx = 0;
+        for (int i = 0; i < cols; i++)
+            mx = fmax(mx, fabs(row[i]));
+        const float sc = (float)(mx > 0 ? mx / 127.0 : 1.0);
+        ws[r] = sc;
+        for (int i = 0; i < cols; i++)
+            wq[(size_t)r * cols + i] = (int8_t)lrint(row[i] / sc);
+    }
+    snprintf(name, sizeof name, "%s.weight", prefix);
+    if (rc == PL_OK)
+        rc = pl_plm_writer_add(q->w, name, PL_DT_S8, 2,
+                               (const uint32_t[]){(uint32_t)rows, (uint32_t)cols}, wq, 0.0f, 0);
+    snprintf(name, sizeof name, "%s.wscale", prefix);
+    if (rc == PL_OK)
+        rc = pl_plm_writer_add(q->w, name, PL_DT_F32, 1, (const uint32_t[]){(uint32_t)rows}, ws,
+                               0.0f, 0);
+    free(wq);
+    free(ws);
+    return rc;
+}
+
+/* A transition kept float (--keep-float transitionN): its input is dequantised and its norm +
+ * ReLU applied in one affine, max(0, A[c]*q + B[c]) (prefix.norm.dequant, f32 [2][c]), then
+ * the 2x2 average pool and the 1x1 conv in float (prefix.conv.weight s8 [c/2][c] and
+ * prefix.conv.wscale: the conv's own weights, not folded with the input's per-channel scales,
+ * whose spread is what costs an int8 transition its precision); its output is quantised to the
+ * next block's grid as an int8 transition's (prefix.conv.out). */
+static int add_float_transition(struct qctx *q, const char *pre, const float *scale,
+                                const float *shift, const pl_qparams *seg, int c, const float *w,
+                                const pl_qparams *out)
+{
+    char name[PL_PLM_NAME_MAX];
+    float *deq = malloc(2 * (size_t)c * sizeof *deq);
+    if (!deq) return pl_error(PL_E_NOMEM, "out of memory");
+    for (int i = 0; i < c; i++) {
+        const double A = (double)scale[i] * seg[i].scale;
+        deq[i] = (float)A;
+        deq[c + i] = (float)(shift[i] - A * seg[i].zero_point);
+    }
+    snprintf(name, sizeof name, "%s.norm.dequant", pre);
+    int rc = pl_plm_writer_add(q->w, name, PL_DT_F32, 2, (const uint32_t[]){2, (uint32_t)c}, deq,
+                               0.0f, 0);
+    free(deq);
+    snprintf(name, sizeof name, "%s.conv", pre);
+    if (rc == PL_OK) rc = add_rows_s8(q, name, c / 2, c, w);
+    if (rc == PL_OK) rc = add_act_tensor(q, name, out, c / 2, 0);
+    return rc;
+}
+
 static int meta_int(const pl_plm *f, const char *key)
 {
     const char *v = pl_plm_meta(f, key);
@@ -336,6 +396,12 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
         snprintf(text, sizeof text, "%g", o->headroom);
         rc = pl_plm_writer_meta(q->w, "quant_headroom", text);
     }
+    if (rc == PL_OK && o->block_floor_set) {
+        snprintf(text, sizeof text, "%g", o->block_floor);
+        rc = pl_plm_writer_meta(q->w, "quant_block_floor", text);
+    }
+    if (rc == PL_OK && o->keep_float && *o->keep_float)
+        rc = pl_plm_writer_meta(q->w, "quant_keep_float", o->keep_float);
     if (rc == PL_OK && o->method == PL_CALIB_PERCENTILE) {
         snprintf(text, sizeof text, "%g", o->percentile);
         rc = pl_plm_writer_meta(q->w, "quant_percentile", text);
@@ -412,14 +478,19 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
             const float *tw = T("conv.weight", (size_t)ctot / 2 * ctot);
 #undef T
             if (rc < 0) return rc;
-            snprintf(name, sizeof name, "%s.clamp", pre);
-            if ((rc = add_preact(q, name, sc, sf, seg, ctot, fold)) < 0) return rc;
             snprintf(name, sizeof name, "%s.conv", pre);
             const pl_qparams *qt = act_q(q, name);
-            if ((rc = add_layer(q, name, 4,
-                                (const uint32_t[]){(uint32_t)ctot / 2, 1, 1, (uint32_t)ctot}, tw,
-                                NULL, fold, 1, ctot, 0, qt, 0)) < 0)
-                return rc;
+            if (q->keep_trans[b])
+                rc = add_float_transition(q, pre, sc, sf, seg, ctot, tw, qt);
+            else {
+                snprintf(name, sizeof name, "%s.clamp", pre);
+                if ((rc = add_preact(q, name, sc, sf, seg, ctot, fold)) < 0) return rc;
+                snprintf(name, sizeof name, "%s.conv", pre);
+                rc = add_layer(q, name, 4,
+                               (const uint32_t[]){(uint32_t)ctot / 2, 1, 1, (uint32_t)ctot}, tw,
+                               NULL, fold, 1, ctot, 0, qt, 0);
+            }
+            if (rc < 0) return rc;
             for (int c = 0; c < ctot / 2; c++)
                 seg[c] = qt[c];
         } else {
@@ -439,8 +510,11 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
     }
     /* fc on z (element c*bands + k belongs to norm5 channel c) */
     const int zl = FEATURES * bands;
-    if (q->keep_fc) {
-        if ((rc = copy_f32(q, "fc.weight")) < 0 || (rc = copy_f32(q, "fc.bias")) < 0) return rc;
+    if (q->keep_fc) { /* float on the exact z; weights stored int8 with a scale per row */
+        const float *fw = tensor_f32(q, "fc.weight", (size_t)fc_n * zl, &rc);
+        if (rc < 0 || (rc = add_rows_s8(q, "fc", fc_n, zl, fw)) < 0 ||
+            (rc = copy_f32(q, "fc.bias")) < 0)
+            return rc;
     } else {
         const float *fw = tensor_f32(q, "fc.weight", (size_t)fc_n * zl, &rc);
         const float *fb = tensor_f32(q, "fc.bias", (size_t)fc_n, &rc);
@@ -460,33 +534,14 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
     const pl_tensor *d1 = pl_plm_tensor(f, "head_dist.fc1.weight");
     if (!d1 || d1->dtype != PL_DT_F32 || d1->ndim != 2)
         return pl_error(PL_E_MODEL, "%s: float tensor 'head_dist.fc1.weight' missing", f->path);
-    const int dh = (int)d1->dims[0], dd = (int)d1->dims[1];
-    int8_t *dq = malloc((size_t)dh * dd);
-    float *ds = malloc((size_t)dh * sizeof *ds);
-    if (!dq || !ds) rc = pl_error(PL_E_NOMEM, "out of memory");
-    const float *dw = d1->data;
-    for (int r = 0; rc == PL_OK && r < dh; r++) {
-        double mx = 0;
-        for (int i = 0; i < dd; i++)
-            mx = fmax(mx, fabs(dw[(size_t)r * dd + i]));
-        const float s = (float)(mx > 0 ? mx / 127.0 : 1.0);
-        ds[r] = s;
-        for (int i = 0; i < dd; i++)
-            dq[(size_t)r * dd + i] = (int8_t)lrint(dw[(size_t)r * dd + i] / s);
-    }
-    if (rc == PL_OK)
-        rc = pl_plm_writer_add(q->w, "head_dist.fc1.weight", PL_DT_S8, 2, d1->dims, dq, 0.0f, 0);
-    if (rc == PL_OK)
-        rc = pl_plm_writer_add(q->w, "head_dist.fc1.wscale", PL_DT_F32, 1,
-                               (const uint32_t[]){(uint32_t)dh}, ds, 0.0f, 0);
-    free(dq);
-    free(ds);
-    return rc;
+    return add_rows_s8(q, "head_dist.fc1", (int)d1->dims[0], (int)d1->dims[1], d1->data);
 }
 
-static int parse_keep_float(const char *list, int *keep_fc)
+static int parse_keep_float(const char *list, int *keep_fc, int *keep_trans)
 {
     *keep_fc = 0;
+    for (int b = 0; b < N_BLOCKS - 1; b++)
+        keep_trans[b] = 0;
     if (!list || !*list) return PL_OK;
     const char *p = list;
     while (*p) {
@@ -494,13 +549,16 @@ static int parse_keep_float(const char *list, int *keep_fc)
         const size_t n = e ? (size_t)(e - p) : strlen(p);
         if (n == 2 && !strncmp(p, "fc", 2)) {
             *keep_fc = 1;
+        } else if (n == 11 && !strncmp(p, "transition", 10) && p[10] >= '1' &&
+                   p[10] < '1' + N_BLOCKS - 1) {
+            keep_trans[p[10] - '1'] = 1;
         } else if (n > 5 && !strncmp(p, "head_", 5)) {
             /* the heads are always float */
         } else {
             return pl_error(PL_E_ARG,
                             "--keep-float '%.*s': this layer cannot stay float (only "
-                            "'fc' can; the heads are always float; the DenseNet layers share "
-                            "int8 block buffers)",
+                            "'fc' and 'transition1' .. 'transition3' can; the heads are always "
+                            "float; the dense layers share int8 block buffers)",
                             (int)n, p);
         }
         p += n;
@@ -512,13 +570,15 @@ static int parse_keep_float(const char *list, int *keep_fc)
 int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
 {
     memset(rep, 0, sizeof *rep);
-    int keep_fc, rc;
+    int keep_fc, keep_trans[N_BLOCKS - 1], rc;
     if (o->method == PL_CALIB_PERCENTILE && !(o->percentile > 50 && o->percentile <= 100))
         return pl_error(PL_E_ARG, "percentile %g: expected (50, 100]", o->percentile);
     if (o->headroom != 0 && !(o->headroom >= 1 && o->headroom <= 16))
         return pl_error(PL_E_ARG, "headroom %g: expected [1, 16]", o->headroom);
     const double headroom = o->headroom > 0 ? o->headroom : 1.0;
-    if ((rc = parse_keep_float(o->keep_float, &keep_fc)) < 0) return rc;
+    if (o->block_floor_set && !(o->block_floor >= 0 && o->block_floor <= 1))
+        return pl_error(PL_E_ARG, "block floor %g: expected [0, 1]", o->block_floor);
+    if ((rc = parse_keep_float(o->keep_float, &keep_fc, keep_trans)) < 0) return rc;
 
     pl_model *m = NULL;
     pl_source *src = NULL;
@@ -623,10 +683,11 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
         }
     }
     for (int i = 0; i < a->n; i++)
-        floor_scales(a, i);
+        floor_scales(a, i, o->block_floor_set ? o->block_floor : FLOOR_BLOCK);
     rep->n_activations = a->n;
     if ((rc = pl_plm_writer_create(&w)) < 0) goto done;
     struct qctx q = {.f = &file, .w = w, .a = a, .keep_fc = keep_fc};
+    memcpy(q.keep_trans, keep_trans, sizeof keep_trans);
     if ((rc = build(&q, o, rep)) < 0) goto done;
     rc = pl_plm_writer_save(w, o->out_path);
 done:

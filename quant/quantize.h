@@ -18,11 +18,15 @@ typedef struct pl_quantize_opts {
     const char *out_path;   /* int8 .plm to write (replaced atomically) */
     pl_calib_method method;
     double percentile;      /* for PL_CALIB_PERCENTILE, in (50, 100]; e.g. 99.99 */
-    const char *keep_float; /* comma-separated layers kept float ("fc"), or NULL */
+    const char *keep_float; /* comma-separated layers kept float ("fc", "transition1" ..
+                               "transition3"), or NULL */
     int max_frames;         /* 0: all */
     double headroom;        /* every calibrated range is widened by this factor, in [1, 16];
                                0 means 1 (docs/QUANT.md: trades resolution for frames that go
                                beyond the calibration frames) */
+    double block_floor;     /* with block_floor_set, in [0, 1]: a dense-block channel's step is
+                               at least this times its layer's widest step (default 0.25) */
+    int block_floor_set;
     /* called after each calibration frame (good or bad); may be NULL */
     void (*progress)(void *ctx, int64_t good, int64_t bad, const char *frame, const char *error);
     void *progress_ctx;

@@ -6,8 +6,10 @@
 # not change a bit. (The reference path runs once, with 2 threads, as the baseline: it is 60-100x
 # slower, and its independence of the thread count is tests/test_quantize.sh's.) Models: int8 quantisations of build/models/seeded-n3.plm (192x256) and, when
 # it exists, build/models/seeded-n3-96x128.plm (other block sizes, so other tile remainders),
-# calibrated on tests/data/frames; the frames of tests/data/frames as input (under an emulator,
-# PL_RUNNER set: the 96x128 model and one frame, see below). A path the CPU
+# calibrated on tests/data/frames, and the 96x128 one again with --keep-float transition3,fc (the
+# float transition and fc with int8-stored weights: not ISA-dispatched, but split over threads);
+# the frames of tests/data/frames as input (under an emulator, PL_RUNNER set: the plain 96x128
+# model and one frame, see below). A path the CPU
 # lacks is skipped with a message (parlight estimate says why); at least ref and one SIMD path
 # must run. Also `parlight info` names the path and the implementation of every slot, and
 # the executor's per-layer observer sees the same activations on every path.
@@ -20,7 +22,8 @@ fail() { echo "FAIL: $*"; exit 1; }
 
 strip() { sed -E 's/"timing_ms":\{[^}]*\},?//; s/"t_ns":[0-9]+,?//' "$1"; }
 
-MODELS="build/models/seeded-n3.plm build/models/seeded-n3-96x128.plm"
+MODELS="build/models/seeded-n3.plm build/models/seeded-n3-96x128.plm
+        build/models/seeded-n3-96x128.plm:transition3,fc"
 FRAMES=tests/data/frames
 NFRAMES=5
 OBS_MODEL=seeded-n3
@@ -41,11 +44,17 @@ if [ -n "${PL_RUNNER:-}" ]; then
     echo "under $PL_RUNNER: $MODELS, $FRAMES, one thread"
 fi
 
-for M in $MODELS; do
+for MK in $MODELS; do
+    M=${MK%%:*}
     [ -f "$M" ] || { echo "no $M, skipped"; continue; }
     Q="$T/$(basename "$M" .plm)-int8.plm"
-    "$P" quantize --model "$M" --calib "$FRAMES" --method minmax --out "$Q" \
-        2>"$T/qerr" || fail "quantize $M: $(cat "$T/qerr")"
+    kf=()
+    if [ "$MK" != "$M" ]; then
+        kf=(--keep-float "${MK#*:}")
+        Q="$T/$(basename "$M" .plm)-kf-int8.plm"
+    fi
+    "$P" quantize --model "$M" --calib "$FRAMES" --method minmax "${kf[@]}" --out "$Q" \
+        2>"$T/qerr" || fail "quantize $MK: $(cat "$T/qerr")"
     ref=""
     simd=0
     for isa in ref avx2 avxvnni avx512vnni neon dotprod i8mm; do
@@ -66,11 +75,11 @@ for M in $MODELS; do
                 ref="$out"
             else
                 cmp -s <(strip "$ref") <(strip "$out") ||
-                    fail "$(basename "$M"): PARLIGHT_ISA=$isa --threads $th differs from ref"
+                    fail "$(basename "$Q"): PARLIGHT_ISA=$isa --threads $th differs from ref"
             fi
         done
         [ "$isa" = ref ] || simd=$((simd + 1))
-        echo "$(basename "$M") $isa: identical to ref (threads: $ths)"
+        echo "$(basename "$Q") $isa: identical to ref (threads: $ths)"
         # info names the path and the kernel of every slot
         PARLIGHT_ISA=$isa "$P" info --model "$Q" >"$T/info" || fail "info under $isa"
         grep -q "^isa path     $isa" "$T/info" || fail "info under $isa: $(cat "$T/info")"

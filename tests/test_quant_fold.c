@@ -11,7 +11,12 @@
  *     conv, x the dequantised input) within the quantisation error bound computed per output
  *     (output rounding, threshold rounding, weight and bias rounding);
  *  4. a folded 3x3 conv with padding on a plain quantised input (input offset = -zero point)
- *     equals the float conv within the same kind of bound. */
+ *     equals the float conv within the same kind of bound;
+ *  5. pl_qparams_clipped's grid holds its whole range: the first level at or below lo (so a
+ *     block channel clipped at its consumers' clamp point t never reads as a value above t,
+ *     which every consumer would pass on: the rounded zero point did that), the last at or above
+ *     hi, with at most one step of slack in all (unless the zero point's bound coarsens the
+ *     step). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -271,8 +276,37 @@ static void test_folded_3x3(void)
     }
 }
 
+static void test_clipped_grid(void)
+{
+    int worst_lo = 0, worst_hi = 0;
+    for (int it = 0; it < 20000; it++) {
+        const double mag = pow(10.0, urand(-3, 3.5));
+        double lo = urand(-mag, mag), hi = urand(-mag, mag);
+        if (lo > hi) {
+            const double t = lo;
+            lo = hi;
+            hi = t;
+        }
+        if (it % 7 == 0) lo = hi - mag * 1e-3; /* narrow ranges */
+        pl_qparams q;
+        CHECK(pl_qparams_clipped(lo, hi, &q) == PL_OK, "clipped [%g, %g]", lo, hi);
+        const double s = q.scale, first = s * (-128.0 - q.zero_point),
+                     last = s * (127.0 - q.zero_point),
+                     tol = 1e-6 * s + 2e-7 * fmax(fabs(lo), fabs(hi)); /* the f32 scale */
+        if (!(first <= lo + tol)) worst_lo++;
+        if (!(last >= hi - tol)) worst_hi++;
+        /* unless the zero point's bound (|z| <= 32767) made the step coarser */
+        if ((hi - lo) / 254.0 > fmax(fabs(lo), fabs(hi)) / 32000.0)
+            CHECK(last - first <= (hi - lo) * (1 + 1e-6) + s + tol,
+                  "[%g, %g]: grid [%g, %g] wider than a step of slack", lo, hi, first, last);
+    }
+    CHECK(worst_lo == 0, "%d ranges whose first level lies above lo", worst_lo);
+    CHECK(worst_hi == 0, "%d ranges whose last level lies below hi", worst_hi);
+}
+
 int main(void)
 {
+    test_clipped_grid();
     test_clamp_kernel();
     test_preact_semantics();
     test_folded_1x1();
@@ -281,7 +315,7 @@ int main(void)
         printf("%d failures\n", failures);
         return 1;
     }
-    printf("quant fold: clamp kernel exact, clamp semantics (both BN signs), folded 1x1 and 3x3 "
-           "within bounds\n");
+    printf("quant fold: clipped grids hold their ranges, clamp kernel exact, clamp semantics (both "
+           "BN signs), folded 1x1 and 3x3 within bounds\n");
     return 0;
 }

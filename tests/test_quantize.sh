@@ -45,12 +45,40 @@ grep -q "^precision    int8" "$T/info" || fail "info does not say int8: $(cat "$
 cmp -s <(sed 's/"timing_ms".*//' "$T/est.jsonl") <(sed 's/"timing_ms".*//' "$T/est2.jsonl") ||
     fail "int8 results depend on the thread count"
 
-# --keep-float fc: the FC stays f32 in the file and runs in float
-"$P" quantize --model "$M" --calib tests/data/frames --max-frames 2 --keep-float fc \
-    --out "$T/qfc.plm" 2>/dev/null || fail "quantize --keep-float fc"
-"$P" info --model "$T/qfc.plm" | grep -q "^precision    int8" || fail "info on the fc-float model"
-"$P" estimate --model "$T/qfc.plm" --input tests/data/golden-frames/hall-fixtures.png >/dev/null ||
-    fail "estimate with the fc-float model"
+# --keep-float transition3,fc: both run in float on float inputs (the transition on its
+# dequantised block buffer, the fc on the exact band means), their weights stored int8 per row:
+# the file keeps its size, says what it kept, loads and runs (the same on 1 and 2 threads), and
+# the kept layers are no worse than int8 ones (qcheck below)
+"$P" quantize --model "$M" --calib tests/data/frames --method minmax \
+    --keep-float transition3,fc --out "$T/qkf.plm" 2>/dev/null || fail "quantize --keep-float"
+[ "$(stat -c %s "$T/qkf.plm")" -le 9000000 ] || fail "kept-float model > 9 MB"
+"$P" info --model "$T/qkf.plm" >"$T/info-kf" || fail "info on the kept-float model"
+grep -q "^precision    int8" "$T/info-kf" || fail "info on the kept-float model: $(cat "$T/info-kf")"
+/usr/bin/python3 - "$T/qkf.plm" <<'PY' || fail "kept-float tensors"
+import sys
+sys.path.insert(0, "tools")
+import plm
+meta, t, _ = plm.read_plm(sys.argv[1])
+assert meta["quant_keep_float"] == "transition3,fc", meta
+for name, dt, shape in (("transition3.conv.weight", "int8", (512, 1024)),
+                        ("transition3.conv.wscale", "float32", (512,)),
+                        ("transition3.norm.dequant", "float32", (2, 1024)),
+                        ("transition3.conv.out", "float32", (2, 512)),
+                        ("fc.weight", "int8", (512, 3072)), ("fc.wscale", "float32", (512,)),
+                        ("fc.bias", "float32", (512,))):
+    assert str(t[name].dtype) == dt and t[name].shape == shape, (name, t[name].dtype, t[name].shape)
+for gone in ("transition3.clamp", "transition3.conv.bias", "fc.out"):
+    assert gone not in t, gone
+assert "transition2.clamp" in t and t["transition2.conv.weight"].ndim == 4
+PY
+for th in 1 2; do
+    "$P" estimate --model "$T/qkf.plm" --input tests/data/golden-frames --threads $th \
+        >"$T/kf$th.jsonl" || fail "estimate with the kept-float model ($th threads)"
+done
+cmp -s <(sed 's/"timing_ms".*//' "$T/kf1.jsonl") <(sed 's/"timing_ms".*//' "$T/kf2.jsonl") ||
+    fail "kept-float results depend on the thread count"
+"$P" qcheck --float "$M" --int8 "$T/qkf.plm" --input tests/data/golden-frames --json \
+    --no-noise-floor >"$T/qc-kf.json" || fail "qcheck on the kept-float model"
 
 "$P" qcheck --float "$M" --int8 "$Q" --input tests/data/golden-frames --json \
     >"$T/qc.json" || fail "qcheck failed"
@@ -88,6 +116,18 @@ for l in d["layers"]:
 print("qcheck: conv0 %.1f dB, fc %.1f dB, worst cosine %.3f, direction median %.2f deg, output rel L2 "
       "median %.3f (float noise floor %.4f)" % (layers["conv0"]["sqnr_db"], layers["fc"]["sqnr_db"], worst,
       d["direction_err_deg"]["median"], d["output_rel_l2"]["median"], nf["output_rel_l2"]["median"]))
+PY
+# the kept-float layers against the same layers in int8: no worse (a wrong layout or affine in the
+# float transition collapses its SQNR; the float fc reads the exact band means)
+/usr/bin/python3 - "$T/qc.json" "$T/qc-kf.json" <<'PY' || fail "kept-float layers worse than int8"
+import json, sys
+a, b = ({l["name"]: l for l in json.load(open(p))["layers"]} for p in sys.argv[1:3])
+assert len(b) == len(a), (len(a), len(b))
+for n in ("transition3.conv", "fc"):
+    assert b[n]["sqnr_db"] >= a[n]["sqnr_db"] - 0.3 and b[n]["cosine"] >= 0.99, (n, a[n], b[n])
+print("kept float: transition3 %.2f dB (int8 %.2f), fc %.2f dB (int8 %.2f)" % (
+    b["transition3.conv"]["sqnr_db"], a["transition3.conv"]["sqnr_db"], b["fc"]["sqnr_db"],
+    a["fc"]["sqnr_db"]))
 PY
 
 # the issue-4 case: percentile ranges from the same 5 frames; the first bottleneck after conv0
@@ -195,6 +235,30 @@ a, h = scales(sys.argv[1]), scales(sys.argv[2])
 assert all(y >= x for x, y in zip(a, h)) and sum(h) > 1.5 * sum(a), (sum(a), sum(h))
 PY
 expect_error "keep-float 'denseblock1'" "$P" quantize --model "$M" --calib tests/data/frames --keep-float denseblock1 --out "$T/x.plm"
+expect_error "keep-float 'transition4'" "$P" quantize --model "$M" --calib tests/data/frames --keep-float fc,transition4 --out "$T/x.plm"
+# --block-floor: out of [0, 1] is a usage error; a lower floor keeps narrower block channels
+for bad in -0.1 1.5 x; do
+    timeout 60 "$P" quantize --model "$M" --calib tests/data/frames --block-floor "$bad" \
+        --out "$T/x.plm" >"$T/out" 2>"$T/err"
+    [ $? -eq 2 ] && [ "$(wc -l <"$T/err")" -eq 1 ] && grep -q "block-floor '$bad': expected" "$T/err" ||
+        fail "--block-floor $bad: $(cat "$T/err")"
+done
+echo "ok  $(cat "$T/err")"
+"$P" quantize --model "$M" --calib tests/data/frames --method minmax --block-floor 0.05 \
+    --out "$T/qb.plm" 2>/dev/null || fail "quantize --block-floor 0.05"
+/usr/bin/python3 - "$Q" "$T/qb.plm" <<'PY' || fail "--block-floor 0.05"
+import sys
+sys.path.insert(0, "tools")
+import numpy as np
+import plm
+(ma, a, _), (mb, b, _) = plm.read_plm(sys.argv[1]), plm.read_plm(sys.argv[2])
+assert mb["quant_block_floor"] == "0.05" and "quant_block_floor" not in ma, (ma, mb)
+name = "denseblock1.denselayer1.conv2.out"   # block channels: scales, then zero points
+sa, sb = a[name][0], b[name][0]
+assert np.all(sb <= sa * (1 + 1e-6)) and sb.min() < sa.min() and sa.min() >= sa.max() / 4 * (1 - 1e-6), (sa, sb)
+PY
+echo "ok  --block-floor 0.05 keeps narrower block channels"
+
 
 # random damage with the CRC fixed (so the int8 loader's own checks are what stands between the
 # bytes and the kernels): refused with one line or loaded, never a crash
