@@ -370,7 +370,7 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
 {
     const pl_plm *f = q->f;
     int rc = PL_OK;
-    char name[PL_PLM_NAME_MAX], pre[48], text[512];
+    char name[PL_PLM_NAME_MAX], pre[48], text[1024];
     const int bands = meta_int(f, "bands"), fc_n = meta_int(f, "fc");
     float mean[3], std[3];
     if (sscanf(pl_plm_meta(f, "mean"), "%f,%f,%f", &mean[0], &mean[1], &mean[2]) != 3 ||
@@ -382,8 +382,17 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
         const char *k = f->meta_keys[i], *v = f->meta_vals[i];
         if (!strcmp(k, "precision") || !strncmp(k, "quant_", 6)) continue;
         if (!strcmp(k, "provenance")) {
-            snprintf(text, sizeof text, "%s; int8 by parlight quantize (%s, %lld frames)", v,
-                     pl_calib_method_name(o->method), (long long)rep->frames_good);
+            char opts[160] = "";
+            if (o->keep_float && *o->keep_float)
+                snprintf(opts, sizeof opts, ", --keep-float %.100s", o->keep_float);
+            if (o->block_floor_set)
+                snprintf(opts + strlen(opts), sizeof opts - strlen(opts), ", --block-floor %g",
+                         o->block_floor);
+            if (o->headroom > 1)
+                snprintf(opts + strlen(opts), sizeof opts - strlen(opts), ", --headroom %g",
+                         o->headroom);
+            snprintf(text, sizeof text, "%.700s; int8 by parlight quantize (%s, %lld frames%s)", v,
+                     pl_calib_method_name(o->method), (long long)rep->frames_good, opts);
             v = text;
         }
         rc = pl_plm_writer_meta(q->w, k, v);

@@ -5,7 +5,8 @@
 # refused), then train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
 # checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
 # step 1 and step 2, the export (.plm), and the exported model in C (parlight info, estimate)
-# against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3).
+# against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3);
+# tools/train/int8_sim.py on its int8 quantisations against parlight qcheck.
 # Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
 set -u
 cd "$(dirname "$0")/.."
@@ -87,6 +88,27 @@ f=$(ls "$TMP"/data/crops/*.png | head -1)
 "$PY" tools/train/train.py --export-only "$TMP/ck/step1.pt" "$TMP/s1.plm" >/dev/null ||
     fail "--export-only"
 "$BUILD/parlight" info --model "$TMP/s1.plm" >/dev/null || fail "step1 export does not load"
+
+# --- tools/train/int8_sim.py: its simulation of the int8 executor tracks what qcheck measures
+# (z's SQNR within 3 dB), with and without kept-float layers ---
+for kf in "" transition3,fc; do
+    "$BUILD/parlight" quantize --model "$TMP/m.plm" --calib tests/data/frames \
+        ${kf:+--keep-float $kf} --out "$TMP/q8.plm" --force 2>/dev/null || fail "quantize ($kf)"
+    "$BUILD/parlight" qcheck --float "$TMP/m.plm" --int8 "$TMP/q8.plm" --no-noise-floor --json \
+        --input tests/data/golden-frames >"$TMP/qc.json" || fail "qcheck ($kf)"
+    "$PY" tools/train/int8_sim.py --ckpt "$TMP/ck/final.pt" --int8 "$TMP/q8.plm" --threads 1 \
+        --frames tests/data/golden-frames >"$TMP/sim.txt" || fail "int8_sim ($kf)"
+    "$PY" - "$TMP/qc.json" "$TMP/sim.txt" "$kf" <<'PY' || fail "int8_sim against qcheck ($kf): $(cat "$TMP/sim.txt")"
+import json, sys
+z_c = {l["name"]: l["sqnr_db"] for l in json.load(open(sys.argv[1]))["layers"]}["z"]
+lines = open(sys.argv[2]).read().splitlines()
+assert ("kept float: " + (", ".join(sorted(sys.argv[3].split(","))) or "none")) in lines[0], lines[0]
+z_sim = float([l for l in lines if l.split()[0] == "all"][0].split()[1])
+assert abs(z_sim - z_c) <= 3, (z_sim, z_c)
+assert len(lines) == 3 + 2 + 10, len(lines)
+print("int8_sim: z %.1f dB, qcheck %.1f dB (%s)" % (z_sim, z_c, sys.argv[3] or "all int8"))
+PY
+done
 
 # --- the diffuse-sphere terms: step 2 from a step-1 checkpoint with --step2-loss render moves
 # only the heads step 2 trains; step 1 with --w-d1 logs the term ---
