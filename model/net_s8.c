@@ -873,21 +873,6 @@ static void fc_f32(pl_pool *pool, const float *in, int n_in, const float *w, con
     }
 }
 
-/* w . x for int8-stored weights and float x: eight partial sums in a fixed order (so the same
- * bits on every path and thread count, and a loop the compiler can vectorise). */
-static float dot_w8(const int8_t *w, const float *x, int n)
-{
-    float acc[8] = {0};
-    int i = 0;
-    for (; i + 8 <= n; i += 8)
-        for (int k = 0; k < 8; k++)
-            acc[k] += (float)w[i + k] * x[i + k];
-    float sum = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
-    for (; i < n; i++)
-        sum += (float)w[i] * x[i];
-    return sum;
-}
-
 /* The fc kept float with int8-stored weights: h[o] = relu(ws[o] * (w8[o] . z) + b[o]). */
 struct fcw8_job {
     const pl_s8 *s;
@@ -896,11 +881,7 @@ struct fcw8_job {
 static void fc_w8_rows(void *ctx, int begin, int end)
 {
     const pl_s8 *s = ((const struct fcw8_job *)ctx)->s;
-    for (int o = begin; o < end; o++) {
-        const float v =
-            s->fc_ws[o] * dot_w8(s->fc_w8 + (size_t)o * s->z_len, s->z, s->z_len) + s->fc_bf[o];
-        s->h[o] = v > 0.0f ? v : 0.0f;
-    }
+    nn_fc_w8_f32__ref(s->z, 1, s->z_len, s->fc_w8, s->fc_ws, s->fc_bf, 1, s->h, 0, begin, end);
 }
 
 /* A transition kept float (--keep-float transitionN): the block buffer's channels through
@@ -913,6 +894,7 @@ struct tf_job {
     const int8_t *in; /* the block buffer, NHWC, pixel stride T->cin */
     int h, w;         /* the block's size, before the pool */
     float *pooled;    /* [(h/2)*(w/2)][cin] */
+    float *y;         /* [(h/2)*(w/2)][cin/2], the conv's float output */
     int8_t *out;      /* the next block's buffer, pixel stride out_stride */
 };
 
@@ -943,11 +925,11 @@ static void tf_conv(void *ctx, int begin, int end)
     const struct tf_job *j = ctx;
     const struct s8_layer *L = &j->T->conv;
     const int c = j->T->cin, np = (j->h / 2) * (j->w / 2);
-    for (int o = begin; o < end; o++) {
-        const int8_t *wr = j->T->w8 + (size_t)o * c;
-        const float k = j->T->ws[o] / L->out_scale[o];
-        for (int p = 0; p < np; p++) {
-            float q = rintf(k * dot_w8(wr, j->pooled + (size_t)p * c, c)) + L->out_zps[o];
+    nn_fc_w8_f32__ref(j->pooled, np, c, j->T->w8, j->T->ws, NULL, 0, j->y, c / 2, begin, end);
+    for (int p = 0; p < np; p++) {
+        const float *y = j->y + (size_t)p * (c / 2);
+        for (int o = begin; o < end; o++) {
+            float q = rintf(y[o] / L->out_scale[o]) + L->out_zps[o];
             q = q < -128.0f ? -128.0f : q > 127.0f ? 127.0f : q;
             j->out[(size_t)p * L->out_stride + o] = (int8_t)q;
         }
@@ -1021,7 +1003,7 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
         const nn_dims bd = {1, h, w, ctot};
         if (b < N_BLOCKS - 1 && s->trans[b].w8) {
             const struct s8_trans *T = &s->trans[b];
-            struct tf_job tj = {T, cur, h, w, s->tf_in, next};
+            struct tf_job tj = {T, cur, h, w, s->tf_in, s->tf_out, next};
             pl_pool_for(pool, (h / 2) * (w / 2), tf_pool, &tj);
             pl_pool_for(pool, ctot / 2, tf_conv, &tj);
             pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);

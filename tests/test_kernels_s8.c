@@ -5,11 +5,17 @@
  * it whole; conv1x1 equals conv2d with a 1x1 filter; depthwise with one input channel equals
  * conv2d; FC equals conv1x1 on a 1x1 image and per-tensor equals per-channel with repeated
  * values; the accumulator at the depth limit; the argument checks reject bad shapes. Exact
- * comparisons only: int8 has no tolerance. Correctness against TFLite is tests/nn_vectors. */
+ * comparisons only: int8 has no tolerance. Correctness against TFLite is tests/nn_vectors.
+ * nn_fc_w8_f32__ref (float rows, int8-stored weights with a scale per row): against a double
+ * sum (relative 1e-5 of the sum of |terms|), bias, ReLU and the output stride; a row's result is
+ * the same bits whether it is computed alone, among several rows or in channel pieces. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include <math.h>
+
+#include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "port/util.h"
 #include "quant/requant.h"
@@ -500,8 +506,55 @@ static void test_checks(void)
     CHECK(nn_tensor_s8_size(&d, 8, &sz) == PL_OK && sz == 23 * 8 + 5, "strided size %zu", sz);
 }
 
+static void test_fc_w8(int iter)
+{
+    const int rows = 1 + (int)(rnd() % 5), n_in = 1 + (int)(rnd() % 300), n_out = 1 + (int)(rnd() % 40);
+    const int stride = n_out + (int)(rnd() % 3), relu = (int)(rnd() % 2), has_bias = iter % 3 != 0;
+    float *x = xmalloc((size_t)rows * n_in * sizeof *x), *ws = xmalloc((size_t)n_out * sizeof *ws);
+    float *b = xmalloc((size_t)n_out * sizeof *b);
+    float *y = xmalloc((size_t)rows * stride * sizeof *y), *y1 = xmalloc((size_t)stride * sizeof *y1);
+    int8_t *w = xmalloc((size_t)n_out * n_in);
+    fill_s8(w, (size_t)n_out * n_in);
+    for (int i = 0; i < rows * n_in; i++)
+        x[i] = (float)((int)(rnd() % 20001) - 10000) / 1000.0f;
+    for (int o = 0; o < n_out; o++) {
+        ws[o] = (float)(1 + rnd() % 1000) / 1e5f;
+        b[o] = (float)((int)(rnd() % 2001) - 1000) / 100.0f;
+    }
+    for (int i = 0; i < rows * stride; i++)
+        y[i] = -777.0f;
+    nn_fc_w8_f32__ref(x, rows, n_in, w, ws, has_bias ? b : NULL, relu, y, stride, 0, n_out);
+    for (int r = 0; r < rows; r++) {
+        for (int o = 0; o < n_out; o++) {
+            double sum = 0, mag = 0;
+            for (int i = 0; i < n_in; i++) {
+                sum += (double)w[(size_t)o * n_in + i] * x[(size_t)r * n_in + i];
+                mag += fabs((double)w[(size_t)o * n_in + i] * x[(size_t)r * n_in + i]);
+            }
+            double want = ws[o] * sum + (has_bias ? b[o] : 0);
+            if (relu && want < 0) want = 0;
+            const float got = y[(size_t)r * stride + o];
+            CHECK(fabs(got - want) <= 1e-5 * ws[o] * mag + 1e-5 * fabs(has_bias ? b[o] : 0) + 1e-6,
+                  "fc_w8 %dx%d->%d row %d out %d: %g, want %g", rows, n_in, n_out, r, o, got, want);
+        }
+        for (int o = n_out; o < stride; o++)
+            CHECK(y[(size_t)r * stride + o] == -777.0f, "fc_w8 wrote outside its channels");
+        /* the same row alone, its channels in two pieces: the same bits */
+        const int cut = (int)(rnd() % (unsigned)(n_out + 1));
+        nn_fc_w8_f32__ref(x + (size_t)r * n_in, 1, n_in, w, ws, has_bias ? b : NULL, relu, y1, 0,
+                          cut, n_out);
+        nn_fc_w8_f32__ref(x + (size_t)r * n_in, 1, n_in, w, ws, has_bias ? b : NULL, relu, y1, 0,
+                          0, cut);
+        CHECK(!memcmp(y1, y + (size_t)r * stride, (size_t)n_out * sizeof *y1),
+              "fc_w8 row %d differs alone or in pieces", r);
+    }
+    free(x), free(ws), free(b), free(y), free(y1), free(w);
+}
+
 int main(void)
 {
+    for (int i = 0; i < 300; i++)
+        test_fc_w8(i);
     for (int i = 0; i < 1000; i++)
         test_conv(i);
     for (int i = 0; i < 1000; i++)

@@ -9,6 +9,7 @@
 #define PL_KERNELS_REF_NN_REF_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 typedef struct nn_conv_params {
     int in_c, in_h, in_w;    /* input planes */
@@ -49,5 +50,13 @@ void nn_band_pool_f32__ref(const float *in, int c, int h, int w, int bands, floa
 /* out[o] = act(bias[o] + sum_i w[o][i] * in[i]) for outputs [o_begin, o_end); bias may be NULL. */
 void nn_fc_f32__ref(const float *in, int n_in, const float *w, const float *bias, int relu,
                     float *out, int o_begin, int o_end);
+
+/* The same with int8-stored weights and a scale per row (a float layer whose weights are kept
+ * int8, docs/QUANT.md "--keep-float"), for n_rows input rows in[r][n_in] at once:
+ * out[r * out_stride + o] = act(wscale[o] * sum_i w[o][i] * in[r][i] + bias[o]), bias may be
+ * NULL. Eight partial sums per dot product in a fixed order: the same bits wherever it runs. */
+void nn_fc_w8_f32__ref(const float *in, int n_rows, int n_in, const int8_t *w,
+                       const float *wscale, const float *bias, int relu, float *out,
+                       int out_stride, int o_begin, int o_end);
 
 #endif
