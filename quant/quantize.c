@@ -172,6 +172,7 @@ struct qctx {
     const struct acts *a;
     int keep_fc;
     int keep_trans[N_BLOCKS - 1]; /* --keep-float transitionN */
+    char kept[64];                /* the layers kept float, in network order ("" for none) */
 };
 
 static const float *tensor_f32(const struct qctx *q, const char *name, size_t count, int *rc)
@@ -383,8 +384,7 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
         if (!strcmp(k, "precision") || !strncmp(k, "quant_", 6)) continue;
         if (!strcmp(k, "provenance")) {
             char opts[160] = "";
-            if (o->keep_float && *o->keep_float)
-                snprintf(opts, sizeof opts, ", --keep-float %.100s", o->keep_float);
+            if (q->kept[0]) snprintf(opts, sizeof opts, ", --keep-float %s", q->kept);
             if (o->block_floor_set)
                 snprintf(opts + strlen(opts), sizeof opts - strlen(opts), ", --block-floor %g",
                          o->block_floor);
@@ -409,8 +409,7 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
         snprintf(text, sizeof text, "%g", o->block_floor);
         rc = pl_plm_writer_meta(q->w, "quant_block_floor", text);
     }
-    if (rc == PL_OK && o->keep_float && *o->keep_float)
-        rc = pl_plm_writer_meta(q->w, "quant_keep_float", o->keep_float);
+    if (rc == PL_OK && q->kept[0]) rc = pl_plm_writer_meta(q->w, "quant_keep_float", q->kept);
     if (rc == PL_OK && o->method == PL_CALIB_PERCENTILE) {
         snprintf(text, sizeof text, "%g", o->percentile);
         rc = pl_plm_writer_meta(q->w, "quant_percentile", text);
@@ -697,6 +696,12 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
     if ((rc = pl_plm_writer_create(&w)) < 0) goto done;
     struct qctx q = {.f = &file, .w = w, .a = a, .keep_fc = keep_fc};
     memcpy(q.keep_trans, keep_trans, sizeof keep_trans);
+    for (int b = 0; b < N_BLOCKS - 1; b++)
+        if (keep_trans[b])
+            snprintf(q.kept + strlen(q.kept), sizeof q.kept - strlen(q.kept), "%stransition%d",
+                     q.kept[0] ? "," : "", b + 1);
+    if (keep_fc) snprintf(q.kept + strlen(q.kept), sizeof q.kept - strlen(q.kept), "%sfc",
+                          q.kept[0] ? "," : "");
     if ((rc = build(&q, o, rep)) < 0) goto done;
     rc = pl_plm_writer_save(w, o->out_path);
 done:
