@@ -1001,75 +1001,53 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
             }
         }
         const nn_dims bd = {1, h, w, ctot};
-        if (b < N_BLOCKS - 1 && s->trans[b].w8) {
-            const struct s8_trans *T = &s->trans[b];
-            struct tf_job tj = {T, cur, h, w, s->tf_in, s->tf_out, next};
-            pl_pool_for(pool, (h / 2) * (w / 2), tf_pool, &tj);
-            pl_pool_for(pool, ctot / 2, tf_conv, &tj);
-            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
-            h /= 2;
-            w /= 2;
-            if (s->observer) {
-                snprintf(name, sizeof name, "transition%d.conv", b + 1);
-                observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
-            }
-            int8_t *tmp = cur;
-            cur = next;
-            next = tmp;
-        } else if (b < N_BLOCKS - 1 && s->k->s8.packed) {
-            /* clamp + 2x2 average pool straight into the transition conv's A */
+        if (b < N_BLOCKS - 1) {
             const struct s8_trans *T = &s->trans[b];
             const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
             const nn_dims pd = {1, h / 2, w / 2, ctot};
-            struct s8_job pj = {.op = S8_AVGPOOL_P,
-                                .L = &T->conv,
-                                .out = next,
-                                .fuse = 1,
-                                .k = &s->k->s8,
-                                .pool = &ap,
-                                .in_dims = &bd,
-                                .out_dims = &pd,
-                                .in = cur,
-                                .in_stride = ctot,
-                                .lo = T->lo,
-                                .hi = T->hi,
-                                .a_out = s->a1,
-                                .out_stride = T->conv.pc.cs};
-            pl_pool_for(pool, (h / 2) * (w / 2), run_s8, &pj); /* and the 1x1 conv */
-            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
-            h /= 2;
-            w /= 2;
-            if (s->observer) {
-                snprintf(name, sizeof name, "transition%d.conv", b + 1);
-                observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
+            if (T->w8) { /* kept float */
+                struct tf_job tj = {T, cur, h, w, s->tf_in, s->tf_out, next};
+                pl_pool_for(pool, (h / 2) * (w / 2), tf_pool, &tj);
+                pl_pool_for(pool, ctot / 2, tf_conv, &tj);
+            } else if (s->k->s8.packed) {
+                /* clamp + 2x2 average pool straight into the transition conv's A */
+                struct s8_job pj = {.op = S8_AVGPOOL_P,
+                                    .L = &T->conv,
+                                    .out = next,
+                                    .fuse = 1,
+                                    .k = &s->k->s8,
+                                    .pool = &ap,
+                                    .in_dims = &bd,
+                                    .out_dims = &pd,
+                                    .in = cur,
+                                    .in_stride = ctot,
+                                    .lo = T->lo,
+                                    .hi = T->hi,
+                                    .a_out = s->a1,
+                                    .out_stride = T->conv.pc.cs};
+                pl_pool_for(pool, (h / 2) * (w / 2), run_s8, &pj); /* and the 1x1 conv */
+            } else {
+                struct s8_job cj = {.op = S8_CLAMP,
+                                    .in_dims = &bd,
+                                    .out = cur,
+                                    .out_stride = ctot,
+                                    .lo = T->lo,
+                                    .hi = T->hi};
+                pl_pool_for(pool, ctot, run_s8, &cj);
+                struct s8_job pj = {.op = S8_AVGPOOL,
+                                    .pool = &ap,
+                                    .in_dims = &bd,
+                                    .out_dims = &pd,
+                                    .in = cur,
+                                    .out = s->t,
+                                    .in_stride = ctot,
+                                    .out_stride = ctot};
+                pl_pool_for(pool, ctot, run_s8, &pj);
+                layer(s, pool, S8_CONV1X1, &T->conv, s->t, next);
             }
-            int8_t *tmp = cur;
-            cur = next;
-            next = tmp;
-        } else if (b < N_BLOCKS - 1) {
-            const struct s8_trans *T = &s->trans[b];
-            struct s8_job cj = {.op = S8_CLAMP,
-                                .in_dims = &bd,
-                                .out = cur,
-                                .out_stride = ctot,
-                                .lo = T->lo,
-                                .hi = T->hi};
-            pl_pool_for(pool, ctot, run_s8, &cj);
-            const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
-            const nn_dims pd = {1, h / 2, w / 2, ctot};
-            struct s8_job pj = {.op = S8_AVGPOOL,
-                                .pool = &ap,
-                                .in_dims = &bd,
-                                .out_dims = &pd,
-                                .in = cur,
-                                .out = s->t,
-                                .in_stride = ctot,
-                                .out_stride = ctot};
-            pl_pool_for(pool, ctot, run_s8, &pj);
+            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
             h /= 2;
             w /= 2;
-            layer(s, pool, S8_CONV1X1, &T->conv, s->t, next);
-            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
             if (s->observer) {
                 snprintf(name, sizeof name, "transition%d.conv", b + 1);
                 observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
