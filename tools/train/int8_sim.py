@@ -41,7 +41,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 import plm  # noqa: E402
 import train  # noqa: E402
-from model import BANDS, ParLightNet  # noqa: E402
+from model import BANDS, STD, ParLightNet  # noqa: E402
 
 
 def bn_affine(bn):
@@ -105,7 +105,8 @@ def simulate(model, x, q8, acts=lambda name: True, weights=lambda name: True):
             return mod(t)
         return mod._conv_forward(t, round_weight(mod.weight, in_scale), mod.bias)
 
-    y = fq(f.relu0(f.norm0(conv(f.conv0, x, "conv0", None))), "conv0")
+    stem = 1.0 / torch.tensor(STD)  # the input normalisation, folded into conv0 per channel
+    y = fq(f.relu0(f.norm0(conv(f.conv0, x, "conv0", stem))), "conv0")
     y = f.pool0(y)
     seg = [q8.get("conv0")[0]]  # the block buffer's per-channel steps
     for b in range(1, 5):
