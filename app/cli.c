@@ -23,6 +23,21 @@ int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, 
     return 0;
 }
 
+int cli_double(const char *cmd, const char *flag, const char *s, double lo, double hi, int lo_open,
+               double *out)
+{
+    char *end;
+    errno = 0;
+    const double v = strtod(s, &end);
+    if (errno || end == s || *end || !(lo_open ? v > lo : v >= lo) || !(v <= hi)) {
+        fprintf(stderr, "parlight %s: %s '%s': expected a number in %s%g, %g]\n", cmd, flag, s,
+                lo_open ? "(" : "[", lo, hi);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
 int cli_float3(const char *cmd, const char *flag, const char *s, float out[3])
 {
     const char *p = s;

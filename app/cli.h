@@ -5,6 +5,9 @@
 /* Each returns 0 on success, or prints "parlight <cmd>: --flag: <problem>" and returns -1. */
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out);
 int cli_float3(const char *cmd, const char *flag, const char *s, float out[3]);
+/* A number in [lo, hi], or in (lo, hi] when lo_open. */
+int cli_double(const char *cmd, const char *flag, const char *s, double lo, double hi, int lo_open,
+               double *out);
 /* --anchor: "off" (w = b = 0, gamma 2.2) or W,B or W,B,GAMMA (pl_model_set_anchor's ranges). */
 int cli_anchor(const char *cmd, const char *s, double out[3]);
 

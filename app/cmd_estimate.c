@@ -164,13 +164,8 @@ int cmd_estimate(int argc, char **argv)
             have_at = 1;
             break;
         case 's': {
-            char *end;
-            double v = strtod(optarg, &end);
-            if (end == optarg || *end || !(v > 0.0 && v <= 1.0)) {
-                fprintf(stderr, "parlight estimate: --smooth '%s': expected a number in (0, 1]\n",
-                        optarg);
-                return 2;
-            }
+            double v;
+            if (cli_double("estimate", "--smooth", optarg, 0, 1, 1, &v) < 0) return 2;
             alpha = (float)v;
             break;
         }

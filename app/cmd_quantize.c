@@ -1,5 +1,4 @@
 /* parlight quantize: float .plm -> int8 .plm, calibrated on frames (docs/QUANT.md). */
-#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -89,47 +88,21 @@ int cmd_quantize(int argc, char **argv)
                 return 2;
             }
             break;
-        case 'p': {
-            char *end;
-            errno = 0;
-            o.percentile = strtod(optarg, &end);
-            if (errno || end == optarg || *end || !(o.percentile > 50 && o.percentile <= 100)) {
-                fprintf(stderr,
-                        "parlight quantize: --percentile '%s': expected a number in "
-                        "(50, 100]\n",
-                        optarg);
+        case 'p':
+            if (cli_double("quantize", "--percentile", optarg, 50, 100, 1, &o.percentile) < 0)
                 return 2;
-            }
             break;
-        }
         case 'k':
             o.keep_float = optarg;
             break;
-        case 'H': {
-            char *end;
-            errno = 0;
-            o.headroom = strtod(optarg, &end);
-            if (errno || end == optarg || *end || !(o.headroom >= 1 && o.headroom <= 16)) {
-                fprintf(stderr,
-                        "parlight quantize: --headroom '%s': expected a number in [1, 16]\n",
-                        optarg);
-                return 2;
-            }
+        case 'H':
+            if (cli_double("quantize", "--headroom", optarg, 1, 16, 0, &o.headroom) < 0) return 2;
             break;
-        }
-        case 'B': {
-            char *end;
-            errno = 0;
-            o.block_floor = strtod(optarg, &end);
-            if (errno || end == optarg || *end || !(o.block_floor >= 0 && o.block_floor <= 1)) {
-                fprintf(stderr,
-                        "parlight quantize: --block-floor '%s': expected a number in [0, 1]\n",
-                        optarg);
+        case 'B':
+            if (cli_double("quantize", "--block-floor", optarg, 0, 1, 0, &o.block_floor) < 0)
                 return 2;
-            }
             o.block_floor_set = 1;
             break;
-        }
         case 'n':
             if (cli_int("quantize", "--max-frames", optarg, 1, 1000000, &o.max_frames) < 0)
                 return 2;

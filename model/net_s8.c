@@ -874,13 +874,9 @@ static void fc_f32(pl_pool *pool, const float *in, int n_in, const float *w, con
 }
 
 /* The fc kept float with int8-stored weights: h[o] = relu(ws[o] * (w8[o] . z) + b[o]). */
-struct fcw8_job {
-    const pl_s8 *s;
-};
-
 static void fc_w8_rows(void *ctx, int begin, int end)
 {
-    const pl_s8 *s = ((const struct fcw8_job *)ctx)->s;
+    const pl_s8 *s = ctx;
     nn_fc_w8_f32__ref(s->z, 1, s->z_len, s->fc_w8, s->fc_ws, s->fc_bf, 1, s->h, 0, begin, end);
 }
 
@@ -1095,8 +1091,7 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
     if (s->fc_wf) {
         fc_f32(pool, s->z, s->z_len, s->fc_wf, s->fc_bf, fcn, 1, s->h);
     } else if (s->fc_w8) {
-        struct fcw8_job fj = {s};
-        pl_pool_for(pool, fcn, fc_w8_rows, &fj);
+        pl_pool_for(pool, fcn, fc_w8_rows, s);
     } else {
         layer(s, pool, S8_FC, &s->fc, s->zq, s->hq);
         for (int i = 0; i < fcn; i++)
