@@ -75,6 +75,47 @@ worst = max(float((a["model"][k].float() - b["model"][k].float()).abs().max()) f
 print(f"resumed vs uninterrupted after 4 batches: max |weight difference| {worst:.3g}")
 assert worst <= 1e-5, worst
 EOF
+# the regularisers (--z-dropout, --erase) draw from seeded generators: a resumed run stays
+# bit-identical, and they change what is learnt
+REG=(--z-dropout 0.3 --erase 0.9)
+"${TR[@]}" "${REG[@]}" --ckpt-dir "$TMP/ckr" --log "$TMP/logr" --max-steps 2 >/dev/null ||
+    fail "regularised: 2 steps"
+"${TR[@]}" "${REG[@]}" --ckpt-dir "$TMP/ckr" --log "$TMP/logr" --max-steps 4 >/dev/null ||
+    fail "regularised: resume"
+"${TR[@]}" "${REG[@]}" --ckpt-dir "$TMP/ckr2" --log "$TMP/logr2" --max-steps 4 >/dev/null ||
+    fail "regularised: 4 in one go"
+"${TR[@]}" --z-dropout 0.3 --ckpt-dir "$TMP/ckr" --log "$TMP/logr" --max-steps 5 >"$TMP/r.log" 2>&1 &&
+    fail "resumed with another --erase"
+grep -q "another configuration (erase differ)" "$TMP/r.log" || fail "no reason: $(cat "$TMP/r.log")"
+"${TR[@]}" --erase 1 --ckpt-dir "$TMP/ckr3" --log "$TMP/logr3" >"$TMP/r.log" 2>&1 &&
+    fail "--erase 1 accepted"
+grep -q "expected a probability" "$TMP/r.log" || fail "no reason: $(cat "$TMP/r.log")"
+"$PY" - "$TMP/ckr/last.pt" "$TMP/ckr2/last.pt" "$TMP/ck2/last.pt" <<'EOF' || fail "regularised resume"
+import sys, torch
+a, b, plain = (torch.load(p, map_location="cpu")["model"] for p in sys.argv[1:4])
+worst = max(float((a[k].float() - b[k].float()).abs().max()) for k in a)
+moved = max(float((a[k].float() - plain[k].float()).abs().max()) for k in a)
+print(f"regularised: resumed vs uninterrupted {worst:.3g}, vs unregularised {moved:.3g}")
+assert worst <= 1e-5 and moved > 1e-4, (worst, moved)
+EOF
+"$PY" - <<'EOF' || fail "erase_batch"
+import sys, torch
+sys.path[:0] = ["tools/train", "tools"]
+import train
+u8 = torch.zeros(64, 96, 128, 3, dtype=torch.uint8)
+u8[:, :, 64:] = 200                      # mean colour 100
+on, prm = train.erase_params(64, 0.5, torch.Generator().manual_seed(3))
+out = train.erase_batch(u8, on, prm)
+frac = (out != u8).any(-1).float().mean(dim=(1, 2))
+assert torch.equal(u8[~on], out[~on]) and 16 < int(on.sum()) < 48, int(on.sum())
+for b in torch.nonzero(on).flatten().tolist():
+    changed = (out[b] != u8[b]).any(-1)
+    assert (out[b][changed] == 100).all(), b
+    # the rectangle covers 5-25% of the image (pixels already at the mean do not show)
+    assert (out[b] == 100).all(-1).float().mean() <= 0.26 and frac[b] <= 0.26, b
+assert float(frac[on].max()) > 0.05
+print(f"erase_batch: {int(on.sum())} of 64 images erased, {float(frac[on].mean()):.3f} of the area")
+EOF
 "${TR[@]}" --ckpt-dir "$TMP/ck" --log "$TMP/log" --export "$TMP/m.plm" >/dev/null ||
     fail "finish steps 1 and 2 and export"
 grep -q "step2 epoch 2/2" "$TMP/log" || fail "no step-2 epoch in $(cat "$TMP/log")"

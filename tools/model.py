@@ -81,6 +81,9 @@ class ParLightNet(nn.Module):
         self.head_rgb = nn.Linear(FC, 3 * n_lights)
         self.head_ambient = nn.Linear(FC, 3)
         self.head_dist = DistanceHead(n_lights, dist_hidden)
+        # training only (tools/train/train.py --z-dropout): dropout on z before the fc and the
+        # distance head; no-op in eval mode, so exports and the C graph do not change
+        self.z_dropout = 0.0
 
     def latent(self, x):
         """z [B, 3072], channel-major (index c*3 + band)."""
@@ -90,12 +93,13 @@ class ParLightNet(nn.Module):
     def forward(self, x):
         n = self.n_lights
         z = self.latent(x)
-        h = F.relu(self.fc(z))
+        zd = F.dropout(z, self.z_dropout, self.training) if self.z_dropout > 0 else z
+        h = F.relu(self.fc(zd))
         dirs = F.normalize(self.head_dir(h).view(-1, n, 3), dim=-1)
         return {
             "z": z,
             "dir": dirs,
-            "distance": self.head_dist(z, dirs),
+            "distance": self.head_dist(zd, dirs),
             "size": F.softplus(self.head_size(h)),
             "rgb": F.softplus(self.head_rgb(h)).view(-1, n, 3),
             "ambient": F.softplus(self.head_ambient(h)),

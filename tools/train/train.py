@@ -7,7 +7,7 @@
                          [--batch 16] [--bf16] [--threads 2] [--export OUT.plm]
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
-                         [--sphere-metric log|relative]
+                         [--sphere-metric log|relative] [--z-dropout 0] [--erase 0]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -40,6 +40,13 @@ Adam (beta1 0.9), lr 1e-3 halved every --halve-every epochs, restarting at --lr 
 Augmentation: horizontal flips (image mirrored, light x negated; the crops themselves already
 vary yaw, pitch, fov, exposure and gamma). Validation: --val-panos panoramas held out (chosen
 by name hash, half of them indoor or indoor-semi, half outdoor), loss logged each epoch.
+Regularisers (not in the paper; off by default): --z-dropout P drops the latent z's entries
+with probability P before the fc and the distance head in step 1 (training mode only; the
+exported graph has none); --erase P blanks, in each step-1 training image with probability P,
+one rectangle (5-25% of the area, aspect 1:2..2:1) with the image's mean colour (random erasing:
+a lamp hidden that way is a lamp just outside the frame, so the lighting has to come from what
+the room shows). Both draw from generators seeded by the seed, the epoch and the batch, so a
+resumed run stays bit-identical.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only (the held-out
 ones of both kinds stay the validation).
 
@@ -82,10 +89,11 @@ COS45 = math.cos(math.radians(45.0))
 # configuration keys that must match to resume a checkpoint
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
-               "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric")
+               "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
+               "erase")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
-                   "sphere_metric": "log"}
+                   "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0}
 
 
 def log_line(path, text):
@@ -181,6 +189,34 @@ def flip_gt(gt, flip):
     sx = torch.where(flip, -1.0, 1.0).view(-1, 1)
     g["dir"] = torch.cat([gt["dir"][..., :1] * sx.unsqueeze(-1), gt["dir"][..., 1:]], -1)
     return g
+
+
+def erase_params(n, p, gen):
+    """Per image: erase?, then the rectangle's area fraction, log aspect, centre x and y."""
+    r = torch.rand(n, 5, generator=gen)
+    r[:, 1] = 0.05 + 0.20 * r[:, 1]
+    r[:, 2] = (r[:, 2] * 2 - 1) * math.log(2.0)
+    return r[:, 0] < p, r[:, 1:]
+
+
+def erase_batch(u8, on, prm):
+    """Random erasing in place on a copy of u8 [B, H, W, 3]: the images with on[b] get one
+    rectangle (prm[b] = area fraction, log aspect, centre x, centre y in [0, 1]) filled with
+    their own mean colour."""
+    if not bool(on.any()):
+        return u8
+    out = u8.clone()
+    H, W = u8.shape[1], u8.shape[2]
+    for b in torch.nonzero(on).flatten().tolist():
+        area, logar, cx, cy = (float(v) for v in prm[b])
+        ar = math.exp(logar)
+        h = max(1, min(H, round(math.sqrt(area * H * W / ar))))
+        w = max(1, min(W, round(math.sqrt(area * H * W * ar))))
+        y0 = min(H - h, int(cy * (H - h + 1)))
+        x0 = min(W - w, int(cx * (W - w + 1)))
+        mean = u8[b].float().mean(dim=(0, 1)).round().to(u8.dtype)
+        out[b, y0:y0 + h, x0:x0 + w] = mean
+    return out
 
 
 def take(gt, idx):
@@ -356,12 +392,20 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
         gen = torch.Generator().manual_seed(cfg["seed"] * 100003 + ep)
         perm = tr[torch.randperm(len(tr), generator=gen)]
         flips = torch.rand(len(tr), generator=gen) < 0.5
+        if cfg.get("erase", 0.0) > 0:
+            erase_on, erase_prm = erase_params(len(tr), cfg["erase"], gen)
         model.train()
+        model.z_dropout = cfg.get("z_dropout", 0.0)
         t0, seen, resumed_at = time.time(), 0, state["batch"]
         sums = state.setdefault("sums", {"loss": 0.0, "map": 0.0, "amb": 0.0, "n": 0})
         for b in range(state["batch"], n_batches):
             j = perm[b * cfg["batch"]:(b + 1) * cfg["batch"]]
-            u8, g = flip_batch(imgs[j], take(gt, j), flips[b * cfg["batch"]:(b + 1) * cfg["batch"]])
+            sl = slice(b * cfg["batch"], (b + 1) * cfg["batch"])
+            u8, g = flip_batch(imgs[j], take(gt, j), flips[sl])
+            if cfg.get("erase", 0.0) > 0:
+                u8 = erase_batch(u8, erase_on[sl], erase_prm[sl])
+            if model.z_dropout > 0:
+                torch.manual_seed((cfg["seed"] * 100003 + ep) * 100003 + b)
             with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
                 out = model(to_input(u8))
             loss, parts = step1_loss(out, g, udirs, cfg, render)
@@ -525,6 +569,10 @@ def main(argv=None):
     ap.add_argument("--train-scenes", choices=("all", "indoor"), default="all",
                     help="train on crops of all panoramas, or of the indoor (and indoor-semi) "
                          "ones only; validation keeps its held-out panoramas of both kinds")
+    ap.add_argument("--z-dropout", type=float, default=0.0, metavar="P",
+                    help="step 1: dropout on z before the fc and the distance head")
+    ap.add_argument("--erase", type=float, default=0.0, metavar="P",
+                    help="step 1: random erasing of one rectangle per image with probability P")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
     ap.add_argument("--threads", type=int, default=2)
@@ -562,6 +610,9 @@ def main(argv=None):
             raise ValueError("--init-all: needs --init CKPT")
         if args.step2_from and args.init:
             raise ValueError("--step2-from and --init: give one starting point")
+        for name, v in (("--z-dropout", args.z_dropout), ("--erase", args.erase)):
+            if not 0.0 <= v < 1.0:
+                raise ValueError(f"{name} {v}: expected a probability in [0, 1)")
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
         if not (args.lr > 0 and math.isfinite(args.lr)):
@@ -590,7 +641,7 @@ def main(argv=None):
                "w_a": args.w_a, "val_panos": args.val_panos, "held_out": held,
                "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
                "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
-               "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
+               "z_dropout": args.z_dropout, "erase": args.erase, "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
                "init_all": bool(args.init and args.init_all)}
