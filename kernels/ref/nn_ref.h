@@ -54,7 +54,8 @@ void nn_fc_f32__ref(const float *in, int n_in, const float *w, const float *bias
 /* The same with int8-stored weights and a scale per row (a float layer whose weights are kept
  * int8, docs/QUANT.md "--keep-float"), for n_rows input rows in[r][n_in] at once:
  * out[r * out_stride + o] = act(wscale[o] * sum_i w[o][i] * in[r][i] + bias[o]), bias may be
- * NULL. Eight partial sums per dot product in a fixed order: the same bits wherever it runs. */
+ * NULL. 32 partial sums per dot product in a fixed order: the same bits wherever it runs, and
+ * whether a weight row is used once (one input row) or converted once for all of them. */
 void nn_fc_w8_f32__ref(const float *in, int n_rows, int n_in, const int8_t *w,
                        const float *wscale, const float *bias, int relu, float *out,
                        int out_stride, int o_begin, int o_end);
