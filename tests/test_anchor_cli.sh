@@ -193,6 +193,27 @@ sys.exit(abs(p - g) > 1e-4 + 1e-4 * g)' "$pred" "$got" &&
 else
     fail "fit_anchor.py: $(tail -n 3 "$T/fit.out")"
 fi
+# --lopo: each fold's (w, b) is the plain fit on the crops of the other panoramas
+if "$PY" "$FIT" "$T/raw.json" --w 0,0.5,1 --b=-1:1:0.5 --lopo >"$T/lopo.out" 2>&1 &&
+    "$PY" - "$T/raw.json" "$T/lopo.out" "$FIT" <<'PY'; then
+import json, re, subprocess, sys
+d = json.load(open(sys.argv[1]))
+out = open(sys.argv[2]).read()
+assert re.search(r"^leave one panorama out \(%d panoramas\): median RMSE [0-9.]+" % len(d["panoramas"]),
+                 out, re.M), out
+for p in d["panoramas"]:
+    rest = dict(d, panoramas=[q for q in d["panoramas"] if q is not p])
+    path = sys.argv[1] + ".rest"
+    json.dump(rest, open(path, "w"))
+    r = subprocess.run([sys.executable, sys.argv[3], path, "--w", "0,0.5,1", "--b=-1:1:0.5"],
+                       capture_output=True, text=True, check=True).stdout
+    w, b = re.search(r"^best: w (\S+), b (\S+):", r, re.M).groups()
+    assert f"  without {p['file']}: w {w}, b {b}\n" in out, (p["file"], w, b, out)
+PY
+    ok "fit_anchor --lopo: each fold is the fit without its panorama"
+else
+    fail "fit_anchor --lopo: $(tail -n 3 "$T/lopo.out")"
+fi
 # the int8 file of the same network takes the same anchor (its f32 activation entries keep their
 # zero points through tools/plm.py), and runs it as the flag would
 if [ -f "$Q" ] && "$PY" "$FIT" "$T/raw.json" --w 0,0.5,1 --b=-1:1:0.5 --write "$Q" "$T/fitq.plm" \

@@ -3,7 +3,7 @@
 
     build/parlight eval --model M.plm --hdr HELD_OUT_DIR --crops 16 --anchor off --json > E.json
     tools/train/fit_anchor.py E.json [--w 0,0.25,0.5,0.75,1] [--b=-2:2:0.25]
-                              [--write IN.plm OUT.plm]... [--force]
+                              [--lopo] [--write IN.plm OUT.plm]... [--force]
 
 The anchor scales an estimate by c = 2^(w ev + b), ev = the crop's frame_ev (log2 of the frame's
 mean luminance over the estimate's). For every (w, b) of the grid this prints the median RMSE
@@ -11,6 +11,10 @@ over the crops of E.json, computed exactly from what `parlight eval` records per
 running the network again: the residual of the least-squares fit is orthogonal to the render, so
 
     RMSE(c)^2 = si_rmse^2 + (c - alpha)^2 render_rms^2,   alpha = 2^scale_ev.
+
+--lopo also says how well such a fit carries to a panorama it has not seen: for each panorama of
+E.json, (w, b) fit on the others' crops scores that panorama's crops; the median over all crops
+is printed beside the in-sample one (a fit on a handful of panoramas can look better than it is).
 
 It picks the (w, b) with the lowest median RMSE (ties: the smaller w, then the smaller |b|) and,
 with --write, copies IN.plm to OUT.plm with `intensity_anchor=w,b,gamma` (and a line saying how it
@@ -43,7 +47,8 @@ def parse_list(text, what):
 
 
 def load_crops(path):
-    """[(rmse, si, alpha, rms, frame_ev or None)] of the model on every crop, and the gamma."""
+    """[(rmse, si, alpha, rms, frame_ev or None, panorama)] of the model on every crop, and the
+    gamma."""
     try:
         with open(path) as f:
             d = json.load(f)
@@ -69,7 +74,7 @@ def load_crops(path):
             if abs(at_scale(si, alpha, rms, 1.0) - rmse) > 1e-4 * max(rmse, 1e-3):
                 raise SystemExit(f"fit_anchor: {where}: rmse {rmse} does not follow from si_rmse, "
                                  f"scale_ev and render_rms ({at_scale(si, alpha, rms, 1.0)})")
-            crops.append((rmse, si, alpha, rms, c.get("frame_ev")))
+            crops.append((rmse, si, alpha, rms, c.get("frame_ev"), p.get("file", "")))
     if not crops:
         raise SystemExit(f"fit_anchor: {path}: no crops")
     return crops, float(an.get("gamma", 2.2))
@@ -88,11 +93,45 @@ def median(v):
 def score(crops, w, b):
     """Median RMSE and median scale EV (after the anchor) over the crops."""
     r, ev = [], []
-    for _rmse, si, alpha, rms, fev in crops:
-        c = 2.0 ** (w * fev + b) if fev is not None else 1.0
+    for c, (_rmse, si, alpha, rms, _fev, _pano) in zip(scales(crops, w, b), crops):
         r.append(at_scale(si, alpha, rms, c))
         ev.append(math.log2(alpha / c) if alpha > 0 else 0.0)
     return median(r), median(ev)
+
+
+def scales(crops, w, b):
+    return [2.0 ** (w * fev + b) if fev is not None else 1.0 for *_x, fev, _pano in crops]
+
+
+def fit(crops, ws, bs, rows=None):
+    """The grid's best (median RMSE, w, b); ties: the smaller w, then the smaller |b|. With
+    rows (a list), each w's row of median RMSEs is appended to it."""
+    best = None
+    for w in ws:
+        row = []
+        for b in bs:
+            m, _ = score(crops, w, b)
+            row.append(m)
+            key = (round(m, 12), w, abs(b))
+            if best is None or key < best[0]:
+                best = (key, w, b, m)
+        if rows is not None:
+            rows.append((w, row))
+    return best[3], best[1], best[2]
+
+
+def lopo(crops, ws, bs):
+    """Leave one panorama out: each panorama's crops at the (w, b) fit on the others'."""
+    out, fits = [], []
+    panos = sorted({c[-1] for c in crops})
+    for p in panos:
+        rest = [c for c in crops if c[-1] != p]
+        held = [c for c in crops if c[-1] == p]
+        _, w, b = fit(rest, ws, bs)
+        fits.append((p, w, b))
+        out += [at_scale(si, alpha, rms, c) for c, (_r, si, alpha, rms, *_x)
+                in zip(scales(held, w, b), held)]
+    return median(out), fits
 
 
 def main(argv=None):
@@ -103,6 +142,8 @@ def main(argv=None):
                     help="grid of b (stops) in -8..8, as --b=LO:HI:STEP or --b=a,b,c")
     ap.add_argument("--write", nargs=2, action="append", default=[], metavar=("IN", "OUT"))
     ap.add_argument("--force", action="store_true", help="replace an existing OUT")
+    ap.add_argument("--lopo", action="store_true",
+                    help="also score a fit on all panoramas but one on the one left out")
     a = ap.parse_args(argv)
     ws, bs = parse_list(a.w, "--w"), parse_list(a.b, "--b")
     if not all(0 <= w <= 1 for w in ws) or not all(-8 <= b <= 8 for b in bs):
@@ -114,20 +155,22 @@ def main(argv=None):
           f"(scale EV {base_ev:+.2f})")
     print("median RMSE, rows w, columns b (stops):")
     print("  w \\ b " + "".join(f"{b:>8.2f}" for b in bs))
-    best = None
-    for w in ws:
-        row = []
-        for b in bs:
-            m, _ = score(crops, w, b)
-            row.append(m)
-            key = (round(m, 12), w, abs(b))
-            if best is None or key < best[0]:
-                best = (key, w, b, m)
-        print(f"  {w:5.2f} " + "".join(f"{m:8.4f}" for m in row))
-    _, w, b, m = best
+    rows = []
+    m, w, b = fit(crops, ws, bs, rows)
+    for rw, row in rows:
+        print(f"  {rw:5.2f} " + "".join(f"{x:8.4f}" for x in row))
     _, ev = score(crops, w, b)
     print(f"best: w {w:g}, b {b:g}: median RMSE {m:.4f} (scale EV {ev:+.2f}), "
           f"{100 * (m / base - 1):+.1f}% against no anchor")
+    if a.lopo:
+        npano = len({c[-1] for c in crops})
+        if npano < 2:
+            raise SystemExit("fit_anchor: --lopo needs crops of at least two panoramas")
+        lm, fits = lopo(crops, ws, bs)
+        print(f"leave one panorama out ({npano} panoramas): median RMSE {lm:.4f}, "
+              f"{100 * (lm / base - 1):+.1f}% against no anchor")
+        for p, fw, fb in fits:
+            print(f"  without {p}: w {fw:g}, b {fb:g}")
 
     for src, dst in a.write:
         try:
