@@ -200,9 +200,9 @@ def erase_params(n, p, gen):
 
 
 def erase_batch(u8, on, prm):
-    """Random erasing in place on a copy of u8 [B, H, W, 3]: the images with on[b] get one
-    rectangle (prm[b] = area fraction, log aspect, centre x, centre y in [0, 1]) filled with
-    their own mean colour."""
+    """Random erasing on a copy of u8 [B, H, W, 3] (u8 itself is not changed): the images with
+    on[b] get one rectangle (prm[b] = area fraction, log aspect, centre x, centre y in [0, 1])
+    filled with their own mean colour."""
     if not bool(on.any()):
         return u8
     out = u8.clone()
