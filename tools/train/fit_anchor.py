@@ -92,15 +92,19 @@ def median(v):
 
 def score(crops, w, b):
     """Median RMSE and median scale EV (after the anchor) over the crops."""
-    r, ev = [], []
-    for c, (_rmse, si, alpha, rms, _fev, _pano) in zip(scales(crops, w, b), crops):
-        r.append(at_scale(si, alpha, rms, c))
-        ev.append(math.log2(alpha / c) if alpha > 0 else 0.0)
-    return median(r), median(ev)
+    ev = [math.log2(alpha / c) if alpha > 0 else 0.0
+          for c, (_r, _si, alpha, *_x) in zip(scales(crops, w, b), crops)]
+    return median(rmses(crops, w, b)), median(ev)
 
 
 def scales(crops, w, b):
     return [2.0 ** (w * fev + b) if fev is not None else 1.0 for *_x, fev, _pano in crops]
+
+
+def rmses(crops, w, b):
+    """Each crop's RMSE with the anchor (w, b)."""
+    return [at_scale(si, alpha, rms, c)
+            for c, (_r, si, alpha, rms, *_x) in zip(scales(crops, w, b), crops)]
 
 
 def fit(crops, ws, bs, rows=None):
@@ -129,8 +133,7 @@ def lopo(crops, ws, bs):
         held = [c for c in crops if c[-1] == p]
         _, w, b = fit(rest, ws, bs)
         fits.append((p, w, b))
-        out += [at_scale(si, alpha, rms, c) for c, (_r, si, alpha, rms, *_x)
-                in zip(scales(held, w, b), held)]
+        out += rmses(held, w, b)
     return median(out), fits
 
 
