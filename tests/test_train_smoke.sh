@@ -55,6 +55,36 @@ for p in glob.glob(sys.argv[1] + "/crops/*.json"):
     assert d["exposure_scale"] > 0 and 1.8 <= d["gamma"] <= 2.6, p
 EOF
 echo "dataset: 6 crops, resumable, deterministic"
+# synthetic rooms (tools/train/synth_rooms.py) join a dataset with --synthetic: their crops are
+# indexed after the real ones, change none of them and are never held out
+"$PY" tools/train/synth_rooms.py --out "$TMP/rooms" --rooms 1 --width 256 --quiet ||
+    fail "synth_rooms.py"
+"${DS[@]}" --out "$TMP/data4" --synthetic "$TMP/rooms" --synthetic-crops 2 >/dev/null ||
+    fail "make_dataset.py --synthetic"
+[ "$(grep -c $'\tsynth/room_0000.hdr\tindoor$' "$TMP/data4/index.tsv")" -eq 2 ] ||
+    fail "index.tsv: expected 2 synthetic crops: $(cat "$TMP/data4/index.tsv")"
+[ "$(wc -l <"$TMP/data4/index.tsv")" -eq 9 ] || fail "index.tsv: expected 6 real + 2 synthetic rows"
+for f in "$TMP"/data/crops/*; do
+    cmp -s "$f" "$TMP/data4/crops/${f##*/}" || fail "adding rooms changed a real crop: ${f##*/}"
+done
+"${DS[@]}" --out "$TMP/data5" --synthetic "$TMP/data" >"$TMP/s.log" 2>&1 &&
+    fail "--synthetic accepted a folder synth_rooms.py did not make"
+grep -q "no readable synth.json" "$TMP/s.log" || fail "no reason: $(cat "$TMP/s.log")"
+"$PY" - "$TMP/data4" <<'EOF' || fail "synthetic crops in training"
+import json, sys
+sys.path[:0] = ["tools/train", "tools"]
+import train
+imgs, gt, val, held, _ = train.load_dataset(sys.argv[1], (96, 128), 0)
+assert imgs.shape[0] == 8 and not val.any() and held == [], (imgs.shape, held)
+d = json.load(open(sys.argv[1] + "/crops/synth_room_0000_k001.json"))
+assert d["dataset"]["panorama"] == "synth/room_0000.hdr" and d["lights"], d["dataset"]
+try:
+    train.load_dataset(sys.argv[1], (96, 128), 1)   # 1 real panorama: none left to train on
+    raise SystemExit("--val-panos 1 accepted with one real panorama")
+except ValueError as e:
+    assert "only 1 train/ panoramas" in str(e), e
+print("synthetic: 2 crops join training; the one real panorama is all --val-panos can take")
+EOF
 
 TR=("$PY" tools/train/train.py --data "$TMP/data" --input 96x128 --batch 2 --val-panos 0
     --step1-epochs 3 --step2-epochs 2 --map-width 32 --threads 1)

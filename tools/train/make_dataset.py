@@ -4,10 +4,12 @@
     tools/train/make_dataset.py [--out /work/cache/train-data] [--crops-per-pano 32]
                                 [--size 256x192] [--seed 1] [--jobs 2] [--parlight build/parlight]
                                 [--hdri ../shared/data/hdri] [--scenes indoor,indoor-semi,outdoor]
-                                [--limit N]
+                                [--limit N] [--synthetic DIR [--synthetic-crops K]]
 
 Reads HDRI/MANIFEST.tsv and takes the rows whose file is under train/ (never eval/: a row or a
-panorama path outside train/ is refused). For each panorama, K crops with random camera and
+panorama path outside train/ is refused). With --synthetic DIR it also takes the procedurally lit
+rooms of tools/train/synth_rooms.py in DIR (DIR/MANIFEST.tsv, rows under synth/; K crops each,
+default --crops-per-pano); train.py trains on them and never holds them out. For each panorama, K crops with random camera and
 photometric parameters (drawn by `crop_params`, a pure function of seed, panorama name and crop
 index, so adding panoramas or changing K never changes the crops already made):
 
@@ -63,7 +65,9 @@ def crop_params(seed, pano_name, k):
     return {key: round(v, 4) for key, v in p.items()}
 
 
-def read_manifest(hdri, scenes):
+def read_manifest(hdri, scenes, prefix="train/"):
+    """The MANIFEST.tsv rows of HDRI under `prefix` (train/, or synth/ for synth_rooms.py's
+    output) of the given scenes, each with its folder as "root"."""
     path = os.path.join(hdri, "MANIFEST.tsv")
     with open(path, encoding="utf-8") as f:
         lines = [ln.rstrip("\n").split("\t") for ln in f if ln.strip()]
@@ -75,31 +79,37 @@ def read_manifest(hdri, scenes):
     for i, cols in enumerate(lines[1:], 2):
         row = dict(zip(head, cols))
         name = row.get("file", "")
-        if not name.startswith("train/"):
+        if not name.startswith(prefix):
             continue
-        if "/" in name[len("train/"):] or ".." in name:
+        if "/" in name[len(prefix):] or ".." in name:
             raise ValueError(f"{path}:{i}: unexpected panorama path {name!r}")
         if row.get("scene") not in scenes:
             continue
         full = os.path.join(hdri, name)
         if not os.path.isfile(full):
             raise ValueError(f"{path}:{i}: {full} is listed but missing")
+        row["root"] = hdri
         rows.append(row)
     return rows
 
 
-def make_one(parlight, hdri, row, k, seed, size, out):
+def crop_base(name, k):
+    """The file name (no extension) of crop k of panorama `name` (synth/ rooms get "synth_")."""
+    stem = os.path.splitext(os.path.basename(name))[0]
+    return f"{'synth_' if name.startswith('synth/') else ''}{stem}_k{k:03d}"
+
+
+def make_one(parlight, row, k, seed, size, out):
     """One crop (resumable: skipped when its .json exists). Returns (png, json) names."""
     name = row["file"]
-    stem = os.path.splitext(os.path.basename(name))[0]
-    base = f"{stem}_k{k:03d}"
+    base = crop_base(name, k)
     png, js = os.path.join(out, "crops", base + ".png"), os.path.join(out, "crops", base + ".json")
     if os.path.exists(js) and os.path.exists(png):
         return base
     p = crop_params(seed, name, k)
     tmp_png = os.path.join(out, "tmp", base + ".png")
     tmp_js = os.path.join(out, "tmp", base + ".json")
-    cmd = [parlight, "crop", "--hdr", os.path.join(hdri, name),
+    cmd = [parlight, "crop", "--hdr", os.path.join(row["root"], name),
            "--yaw", repr(p["yaw"]), "--pitch", repr(p["pitch"]), "--fov", repr(p["fov"]),
            "--size", f"{size[1]}x{size[0]}", "--exposure", repr(p["exposure"]),
            "--gamma", repr(p["gamma"]), "--out", tmp_png, "--gt", tmp_js, "--force"]
@@ -142,6 +152,9 @@ def main(argv=None):
     ap.add_argument("--scenes", default="indoor,indoor-semi,outdoor",
                     help="MANIFEST scene classes to use (comma-separated)")
     ap.add_argument("--limit", type=int, default=0, help="only the first N panoramas (tests)")
+    ap.add_argument("--synthetic", metavar="DIR", help="also crop the rooms of synth_rooms.py in DIR")
+    ap.add_argument("--synthetic-crops", type=int, default=0, metavar="K",
+                    help="crops per synthetic room (default: --crops-per-pano)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--parlight", default=os.path.join(ROOT, os.environ.get("BUILD", "build"),
                                                       "parlight"))
@@ -161,19 +174,39 @@ def main(argv=None):
             rows = rows[:args.limit]
         if not rows:
             raise ValueError(f"no train panoramas of scenes {scenes} in {args.hdri}/MANIFEST.tsv")
+        k_synth = args.synthetic_crops or args.crops_per_pano
+        if not 1 <= k_synth <= 10000:
+            raise ValueError(f"--synthetic-crops {args.synthetic_crops}: expected 1..10000")
+        synth = []
+        if args.synthetic:
+            sj = os.path.join(args.synthetic, "synth.json")
+            try:
+                with open(sj, encoding="utf-8") as f:
+                    made_by = json.load(f).get("tool")
+            except (OSError, ValueError) as e:
+                raise ValueError(f"--synthetic {args.synthetic}: no readable synth.json ({e}); "
+                                 "make it with tools/train/synth_rooms.py") from None
+            if made_by != "tools/train/synth_rooms.py":
+                raise ValueError(f"{sj}: not made by tools/train/synth_rooms.py")
+            synth = read_manifest(args.synthetic, scenes, prefix="synth/")
+            if not synth:
+                raise ValueError(f"--synthetic {args.synthetic}: no rooms of scenes {scenes}")
         config = {"tool": "tools/train/make_dataset.py", "version": VERSION, "seed": args.seed,
                   "crops_per_pano": args.crops_per_pano, "size_wh": [args.size[1], args.size[0]],
                   "scenes": scenes, "ranges": RANGES, "limit": args.limit,
-                  "panoramas": [r["file"] for r in rows]}
+                  "panoramas": [r["file"] for r in rows],
+                  "synthetic": ({"dir": os.path.abspath(args.synthetic), "crops_per_room": k_synth,
+                                 "rooms": len(synth)} if synth else None)}
         os.makedirs(os.path.join(args.out, "crops"), exist_ok=True)
         os.makedirs(os.path.join(args.out, "tmp"), exist_ok=True)
         cfg_path = os.path.join(args.out, "dataset.json")
         if os.path.exists(cfg_path):
             with open(cfg_path, encoding="utf-8") as f:
                 old = json.load(f)
-            same = {k: v for k, v in old.items() if k not in ("crops_per_pano", "panoramas")}
-            want = {k: v for k, v in json.loads(json.dumps(config)).items()
-                    if k not in ("crops_per_pano", "panoramas")}
+            # more crops, panoramas or synthetic rooms only add crops; anything else is refused
+            extends = ("crops_per_pano", "panoramas", "synthetic")
+            same = {k: v for k, v in old.items() if k not in extends}
+            want = {k: v for k, v in json.loads(json.dumps(config)).items() if k not in extends}
             if same != want:
                 raise ValueError(f"{cfg_path}: made with another configuration; use another "
                                  "--out (or delete the folder)")
@@ -181,11 +214,12 @@ def main(argv=None):
             json.dump(config, f, indent=1)
         os.replace(cfg_path + ".tmp", cfg_path)
 
-        jobs = [(r, k) for r in rows for k in range(args.crops_per_pano)]
+        jobs = ([(r, k) for r in rows for k in range(args.crops_per_pano)] +
+                [(r, k) for r in synth for k in range(k_synth)])
         done = 0
         with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-            futs = [pool.submit(make_one, args.parlight, args.hdri, r, k, args.seed, args.size,
-                                args.out) for r, k in jobs]
+            futs = [pool.submit(make_one, args.parlight, r, k, args.seed, args.size, args.out)
+                    for r, k in jobs]
             for fut in futs:
                 fut.result()
                 done += 1
@@ -194,13 +228,14 @@ def main(argv=None):
         with open(os.path.join(args.out, "index.tsv.tmp"), "w", encoding="utf-8") as f:
             f.write("png\tjson\tpanorama\tscene\n")
             for r, k in jobs:
-                base = f"{os.path.splitext(os.path.basename(r['file']))[0]}_k{k:03d}"
+                base = crop_base(r["file"], k)
                 f.write(f"crops/{base}.png\tcrops/{base}.json\t{r['file']}\t{r['scene']}\n")
         os.replace(os.path.join(args.out, "index.tsv.tmp"), os.path.join(args.out, "index.tsv"))
     except (OSError, ValueError, RuntimeError) as e:
         print(f"make_dataset: {e}", file=sys.stderr)
         return 1
-    print(f"{args.out}: {len(jobs)} crops of {len(rows)} panoramas")
+    print(f"{args.out}: {len(jobs)} crops of {len(rows)} panoramas"
+          + (f" and {len(synth)} synthetic rooms" if synth else ""))
     return 0
 
 

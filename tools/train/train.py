@@ -39,7 +39,8 @@ features distilled into the DenseNet; the paper starts from ImageNet weights, wh
 Adam (beta1 0.9), lr 1e-3 halved every --halve-every epochs, restarting at --lr for step 2.
 Augmentation: horizontal flips (image mirrored, light x negated; the crops themselves already
 vary yaw, pitch, fov, exposure and gamma). Validation: --val-panos panoramas held out (chosen
-by name hash, half of them indoor or indoor-semi, half outdoor), loss logged each epoch.
+by name hash, half of them indoor or indoor-semi, half outdoor; only real train/ panoramas:
+the synthetic rooms of make_dataset.py --synthetic always train), loss logged each epoch.
 Regularisers (not in the paper; off by default): --z-dropout P drops the latent z's entries
 with probability P before the fc and the distance head in step 1 (training mode only; the
 exported graph has none); --erase P blanks, in each step-1 training image with probability P,
@@ -47,8 +48,8 @@ one rectangle (5-25% of the area, aspect 1:2..2:1) with the image's mean colour 
 a lamp hidden that way is a lamp just outside the frame, so the lighting has to come from what
 the room shows). Both draw from generators seeded by the seed, the epoch and the batch, so a
 resumed run stays bit-identical.
---train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only (the held-out
-ones of both kinds stay the validation).
+--train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
+rooms included (the held-out ones of both kinds stay the validation).
 
 Checkpoints (--ckpt-dir): last.pt every --ckpt-minutes and at each epoch end (model, optimiser,
 step, epoch, batch within the epoch, RNG states, configuration), step1.pt when step 1 ends,
@@ -125,10 +126,13 @@ def load_dataset(data, hw, val_panos, limit=0):
     rows = read_index(data, limit)
     if not rows:
         raise ValueError(f"{index}: no crops")
-    panos = sorted({(r[2], r[3]) for r in rows},
+    # only real panoramas are held out: synthetic rooms (synth/, make_dataset.py --synthetic)
+    # always train, so adding them leaves the validation set as it was
+    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith("train/")},
                    key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
     if val_panos >= len(panos):
-        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} panoramas in the data")
+        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} train/ panoramas in the "
+                         "data (synthetic rooms are never held out)")
     # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
     indoor = [p for p, s in panos if s != "outdoor"]
     outdoor = [p for p, s in panos if s == "outdoor"]
@@ -144,8 +148,8 @@ def load_dataset(data, hw, val_panos, limit=0):
           "mask": torch.zeros(m, MAX_GT), "ambient": torch.zeros(m, 3)}
     val = torch.zeros(m, dtype=torch.bool)
     for i, (png, js, pano, _scene) in enumerate(rows):
-        if not pano.startswith("train/"):
-            raise ValueError(f"{index}: {pano} is not a train panorama")
+        if not pano.startswith(("train/", "synth/")):
+            raise ValueError(f"{index}: {pano} is neither a train panorama nor a synthetic room")
         with Image.open(os.path.join(data, png)) as im:
             im = im.convert("RGB")
             if im.size != (w, h):
