@@ -2,7 +2,9 @@
 # The training tools end to end on tiny inputs (tools/train/): make_dataset.py on 1 train
 # panorama (6 crops of 128x96 by parlight crop; resumable: a rerun changes nothing; deterministic:
 # a second folder with the same seed holds the same bytes; another seed in the same folder is
-# refused), then train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
+# refused); --synthetic adds a synth_rooms.py room's crops without changing the real ones, never
+# held out, and refuses a folder it did not make or other rooms in the same dataset; then
+# train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
 # checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
 # step 1 and step 2, the export (.plm), and the exported model in C (parlight info, estimate)
 # against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3);
@@ -70,6 +72,11 @@ done
 "${DS[@]}" --out "$TMP/data5" --synthetic "$TMP/data" >"$TMP/s.log" 2>&1 &&
     fail "--synthetic accepted a folder synth_rooms.py did not make"
 grep -q "no readable synth.json" "$TMP/s.log" || fail "no reason: $(cat "$TMP/s.log")"
+"$PY" tools/train/synth_rooms.py --out "$TMP/rooms2" --rooms 1 --width 256 --seed 2 --quiet ||
+    fail "synth_rooms.py --seed 2"
+"${DS[@]}" --out "$TMP/data4" --synthetic "$TMP/rooms2" >"$TMP/s.log" 2>&1 &&
+    fail "crops of other rooms were accepted into the same folder"
+grep -q "holds crops of the rooms in" "$TMP/s.log" || fail "no reason: $(cat "$TMP/s.log")"
 "$PY" - "$TMP/data4" <<'EOF' || fail "synthetic crops in training"
 import json, sys
 sys.path[:0] = ["tools/train", "tools"]

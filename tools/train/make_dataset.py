@@ -8,9 +8,9 @@
 
 Reads HDRI/MANIFEST.tsv and takes the rows whose file is under train/ (never eval/: a row or a
 panorama path outside train/ is refused). With --synthetic DIR it also takes the procedurally lit
-rooms of tools/train/synth_rooms.py in DIR (DIR/MANIFEST.tsv, rows under synth/; K crops each,
-default --crops-per-pano); train.py trains on them and never holds them out. For each panorama, K crops with random camera and
-photometric parameters (drawn by `crop_params`, a pure function of seed, panorama name and crop
+rooms of tools/train/synth_rooms.py in DIR (DIR/MANIFEST.tsv, rows under synth/;
+--synthetic-crops each, default --crops-per-pano); train.py trains on them and never holds them
+out. For each panorama, K crops with random camera and photometric parameters (drawn by `crop_params`, a pure function of seed, panorama name and crop
 index, so adding panoramas or changing K never changes the crops already made):
 
     yaw     uniform [0, 360) degrees        pitch  uniform [-15, 25] degrees
@@ -182,11 +182,11 @@ def main(argv=None):
             sj = os.path.join(args.synthetic, "synth.json")
             try:
                 with open(sj, encoding="utf-8") as f:
-                    made_by = json.load(f).get("tool")
+                    made = json.load(f)
             except (OSError, ValueError) as e:
                 raise ValueError(f"--synthetic {args.synthetic}: no readable synth.json ({e}); "
                                  "make it with tools/train/synth_rooms.py") from None
-            if made_by != "tools/train/synth_rooms.py":
+            if made.get("tool") != "tools/train/synth_rooms.py":
                 raise ValueError(f"{sj}: not made by tools/train/synth_rooms.py")
             synth = read_manifest(args.synthetic, scenes, prefix="synth/")
             if not synth:
@@ -196,7 +196,8 @@ def main(argv=None):
                   "scenes": scenes, "ranges": RANGES, "limit": args.limit,
                   "panoramas": [r["file"] for r in rows],
                   "synthetic": ({"dir": os.path.abspath(args.synthetic), "crops_per_room": k_synth,
-                                 "rooms": len(synth)} if synth else None)}
+                                 "rooms": len(synth), "made": {k: made.get(k) for k in (
+                                     "seed", "width", "version")}} if synth else None)}
         os.makedirs(os.path.join(args.out, "crops"), exist_ok=True)
         os.makedirs(os.path.join(args.out, "tmp"), exist_ok=True)
         cfg_path = os.path.join(args.out, "dataset.json")
@@ -210,6 +211,12 @@ def main(argv=None):
             if same != want:
                 raise ValueError(f"{cfg_path}: made with another configuration; use another "
                                  "--out (or delete the folder)")
+            old_s, new_s = old.get("synthetic"), config["synthetic"]
+            if old_s and (not new_s or any(old_s.get(k) != new_s[k] for k in ("dir", "made"))):
+                # the crops already there would pass for crops of rooms they are not
+                raise ValueError(f"{cfg_path}: holds crops of the rooms in {old_s.get('dir')} "
+                                 f"({old_s.get('made')}); give the same --synthetic or use "
+                                 "another --out")
         with open(cfg_path + ".tmp", "w", encoding="utf-8") as f:
             json.dump(config, f, indent=1)
         os.replace(cfg_path + ".tmp", cfg_path)
