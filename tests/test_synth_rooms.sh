@@ -6,7 +6,8 @@
 #   direction the room's JSON records for one of its lights, so the panorama mapping is
 #   light/equirect.c's;
 # - files: deterministic (same seed: same bytes), resumable (more --rooms adds, keeps the old),
-#   another seed in the same folder refused, bad flags refused with the flag named.
+#   another seed in the same folder refused, a folder holding another MANIFEST.tsv left as it
+#   was, bad flags refused with the flag named.
 # Needs python3 with numpy and $BUILD/parlight; not ../shared. Exit 0 pass, 1 fail, 77 skip.
 set -u
 cd "$(dirname "$0")/.."
@@ -85,6 +86,11 @@ sum1=$(cat "$TMP"/a/synth/room_000[0-2].* | sha256sum)
 "$PY" tools/train/synth_rooms.py --width 256 --seed 4 --rooms 1 --out "$TMP/a" >"$TMP/e.log" 2>&1 &&
     fail "another seed was accepted in the same folder"
 grep -q "another seed, width or version" "$TMP/e.log" || fail "no reason: $(cat "$TMP/e.log")"
+mkdir -p "$TMP/d" && printf 'file\tscene\n' >"$TMP/d/MANIFEST.tsv"
+"$PY" tools/train/synth_rooms.py --rooms 1 --out "$TMP/d" >"$TMP/e.log" 2>&1 &&
+    fail "wrote into a folder with another MANIFEST.tsv"
+grep -q "no readable synth.json" "$TMP/e.log" || fail "no reason: $(cat "$TMP/e.log")"
+[ "$(ls "$TMP/d")" = MANIFEST.tsv ] || fail "a refused run left files: $(ls "$TMP/d")"
 for bad in "--width 63" "--width 100000" "--rooms 0" "--first -1"; do
     # shellcheck disable=SC2086
     "$PY" tools/train/synth_rooms.py $bad --out "$TMP/c" >"$TMP/e.log" 2>&1 && fail "$bad accepted"

@@ -537,7 +537,6 @@ def main(argv=None):
             raise ValueError(f"--width {args.width}: expected an even number in 64..8192")
         cfg = {"tool": "tools/train/synth_rooms.py", "version": VERSION, "seed": args.seed,
                "width": args.width}
-        os.makedirs(os.path.join(args.out, "synth"), exist_ok=True)
         cfg_path = os.path.join(args.out, "synth.json")
         man_path = os.path.join(args.out, "MANIFEST.tsv")
         old_rooms = []
@@ -552,6 +551,7 @@ def main(argv=None):
                 raise ValueError(f"{cfg_path}: made with another seed, width or version; use "
                                  "another --out (or delete the folder)")
             old_rooms = old.get("rooms", [])
+        os.makedirs(os.path.join(args.out, "synth"), exist_ok=True)   # after the checks above
         wanted = list(range(args.first, args.first + args.rooms))
         for done, i in enumerate(wanted, 1):
             stem = os.path.join(args.out, "synth", f"room_{i:04d}")
