@@ -294,7 +294,7 @@ def occluded(p, q, lo, hi):
     return out
 
 
-def direct_irradiance(room, p, n, samples, bxs):
+def direct_irradiance(p, n, samples, bxs):
     """[N,3] irradiance at points p with normals n from all lights' samples, with shadows."""
     e = np.zeros_like(p)
     if bxs:
@@ -349,7 +349,6 @@ def albedo(room, surf, p):
     m = room["materials"]
     seed = m["noise_seed"]
     rho = np.zeros_like(p)
-    n = p.shape[0]
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
     # floor
     f = surf == FLOOR
@@ -441,7 +440,7 @@ def shade(room, p, n, surf, samples):
     """[N,3] outgoing radiance of Lambertian points: direct + the enclosure's indirect term."""
     bxs = boxes(room)
     rho = albedo(room, surf, p)
-    e = direct_irradiance(room, p, n, samples, bxs)
+    e = direct_irradiance(p, n, samples, bxs)
     return rho / math.pi * (e + room["_indirect"])
 
 
@@ -457,7 +456,7 @@ def indirect_irradiance(room, samples, n_pts=600):
     p = o + d * t[:, None]
     cosv = np.abs(np.einsum("ij,ij->i", n, d))
     wgt = t * t / np.maximum(cosv, 0.05)
-    e = direct_irradiance(room, p, n, samples, boxes(room))
+    e = direct_irradiance(p, n, samples, boxes(room))
     rho = albedo(room, surf, p)
     e_mean = (e * wgt[:, None]).sum(0) / wgt.sum()
     rho_mean = np.clip((rho * wgt[:, None]).sum(0) / wgt.sum(), 0.0, 0.9)

@@ -130,7 +130,7 @@ def load_dataset(data, hw, val_panos, limit=0):
     # always train, so adding them leaves the validation set as it was
     panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith("train/")},
                    key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
-    if val_panos >= len(panos):
+    if val_panos and val_panos >= len(panos):
         raise ValueError(f"--val-panos {val_panos}: only {len(panos)} train/ panoramas in the "
                          "data (synthetic rooms are never held out)")
     # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
