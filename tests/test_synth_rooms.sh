@@ -2,6 +2,8 @@
 # tools/train/synth_rooms.py, the procedurally lit rooms (synthetic indoor training data):
 # - radiometry: a point lit by one bulb, and one far below a ceiling panel, against the inverse
 #   square law (the renderer's shading, no indirect term), and a shadow cast by furniture;
+# - the slab test (ray_boxes, occluded): entry distance and face of rays into a box, misses
+#   from inside it and away from it;
 # - geometry: each room's brightest extracted light (parlight extract, the C maths) lies in the
 #   direction the room's JSON records for one of its lights, so the panorama mapping is
 #   light/equirect.c's;
@@ -39,7 +41,8 @@ def room(lights, furniture=()):
 
 def radiance(r, p, n, surf):
     samples = [sr.light_samples(r, l) for l in r["lights"]]
-    return sr.shade(r, np.array([p], float), np.array([n], float), np.array([surf]), samples)[0]
+    return sr.shade(r, np.array([p], float), np.array([n], float), np.array([surf]), samples,
+                    sr.boxes(r))[0]
 
 white = [1.0, 1.0, 1.0]
 # a bulb of flux 4 pi (intensity 1) 2 m from a floor point, 60 degrees off its normal:
@@ -66,6 +69,17 @@ shadowed = room(bulb["lights"], [table])
 p2 = [4.5, 0.0, 3.0]
 assert radiance(bulb, p2, [0, 1, 0], sr.FLOOR).max() > 0
 assert radiance(shadowed, p2, [0, 1, 0], sr.FLOOR).max() == 0
+# the slab test: rays toward the table enter it at its faces (distance and face axis); a ray
+# that starts inside it or points away misses it
+o = np.array([[3.0, 0.35, 3.0], [3.75, 0.2, 3.0], [3.75, 0.35, 2.0], [3.0, 0.35, 3.0],
+              [3.75, 1.5, 3.0]])
+d = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [-1.0, 0, 0], [0, -1.0, 0]])
+t, which, axis = sr.ray_boxes(o, d, sr.boxes(shadowed))
+assert list(which) == [0, -1, 0, -1, 0], which
+assert np.allclose(t[[0, 2, 4]], [0.5, 0.5, 0.8]) and list(axis[[0, 2, 4]]) == [0, 2, 1], (t, axis)
+assert sr.occluded(o[:1], np.array([4.5, 0.35, 3.0]), sr.boxes(shadowed))[0]
+assert not sr.occluded(o[:1], np.array([3.4, 0.35, 3.0]), sr.boxes(shadowed))[0]
+assert sr.boxes(bulb)[0].shape == (0, 3)
 # the emitter's radiance: a bulb seen directly is flux / (4 pi) / (pi r^2)
 assert np.allclose(sr.emitter_radiance(bulb, bulb["lights"][0]), 1 / (math.pi * 0.05 ** 2))
 print("radiometry: bulb and panel irradiance as the inverse square law, shadows cast")

@@ -250,56 +250,60 @@ def emitter_radiance(room, light):
 
 
 def boxes(room):
-    return [(np.array(f["lo"]), np.array(f["hi"])) for f in room["furniture"]]
+    """The furniture boxes' corners: lo, hi [B, 3] (B = 0 in an empty room)."""
+    f = room["furniture"]
+    return (np.array([b["lo"] for b in f], np.float64).reshape(-1, 3),
+            np.array([b["hi"] for b in f], np.float64).reshape(-1, 3))
+
+
+def slab(p, v, lo, hi, t_lo):
+    """The slab test of rays p + t v ([N, 3]) against the box lo..hi ([3]), one axis at a time
+    on 1-D arrays: (entry t, exit t, entry axis), each [N], with the entry t at least t_lo. The
+    ray meets the box where entry <= exit."""
+    v = np.where(np.abs(v) < 1e-9, 1e-9, v)          # no 0 * inf below
+    tmin = np.full(p.shape[0], t_lo)
+    tmax = np.full(p.shape[0], np.inf)
+    axis = np.zeros(p.shape[0], np.int64)
+    for a in range(3):
+        inv = 1.0 / v[:, a]
+        t1 = (lo[a] - p[:, a]) * inv
+        t2 = (hi[a] - p[:, a]) * inv
+        near = np.minimum(t1, t2)
+        axis = np.where(near > tmin, a, axis)
+        np.maximum(tmin, near, out=tmin)
+        np.minimum(tmax, np.maximum(t1, t2), out=tmax)
+    return tmin, tmax, axis
 
 
 def ray_boxes(o, d, bxs):
-    """Nearest entry (t [N], box index [N] or -1, entry axis [N]) of rays o + t d into boxes."""
-    n = d.shape[0]
-    best = np.full(n, np.inf)
-    which = np.full(n, -1)
-    axis = np.zeros(n, np.int64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
-        for i, (lo, hi) in enumerate(bxs):
-            t1 = (lo - o) * inv
-            t2 = (hi - o) * inv
-            tn = np.fmin(t1, t2)
-            tf = np.fmax(t1, t2)
-            tmin = np.nanmax(tn, axis=1)
-            tmax = np.nanmin(tf, axis=1)
-            hit = (tmax >= tmin) & (tmin > EPS) & (tmin < best)
-            best = np.where(hit, tmin, best)
-            which = np.where(hit, i, which)
-            axis = np.where(hit, np.nanargmax(tn, axis=1), axis)
+    """Nearest entry (t [N], box index [N] or -1, entry axis [N]) of rays o + t d into the
+    boxes bxs = (lo, hi) [B, 3]; a ray that starts inside a box does not hit it."""
+    best = np.full(d.shape[0], np.inf)
+    which = np.full(d.shape[0], -1)
+    axis = np.zeros(d.shape[0], np.int64)
+    for i, (lo, hi) in enumerate(zip(*bxs)):
+        tmin, tmax, ax = slab(o, d, lo, hi, -np.inf)
+        hit = (tmax >= tmin) & (tmin > EPS) & (tmin < best)
+        best = np.where(hit, tmin, best)
+        which = np.where(hit, i, which)
+        axis = np.where(hit, ax, axis)
     return best, which, axis
 
 
-def occluded(p, q, lo, hi):
-    """[N] bool: whether the segment p -> q (q [3]) crosses one of the boxes lo..hi [B,3]."""
+def occluded(p, q, bxs):
+    """[N] bool: whether the segment p -> q (q [3]) crosses one of the boxes bxs = (lo, hi)."""
     v = q - p
-    v = np.where(np.abs(v) < 1e-9, 1e-9, v)          # no 0 * inf below
-    inv = [np.ascontiguousarray(1.0 / v[:, a]) for a in range(3)]
-    pa = [np.ascontiguousarray(p[:, a]) for a in range(3)]
     out = np.zeros(p.shape[0], bool)
-    for b in range(lo.shape[0]):   # the slab test, one axis at a time on 1-D arrays
-        tmin = np.full(p.shape[0], EPS)
-        tmax = np.full(p.shape[0], 1 - EPS)
-        for a in range(3):
-            t1 = (lo[b, a] - pa[a]) * inv[a]
-            t2 = (hi[b, a] - pa[a]) * inv[a]
-            np.maximum(tmin, np.minimum(t1, t2), out=tmin)
-            np.minimum(tmax, np.maximum(t1, t2), out=tmax)
-        out |= tmax >= tmin
+    for lo, hi in zip(*bxs):
+        tmin, tmax, _ = slab(p, v, lo, hi, EPS)
+        out |= np.minimum(tmax, 1 - EPS) >= tmin
     return out
 
 
 def direct_irradiance(p, n, samples, bxs):
     """[N,3] irradiance at points p with normals n from all lights' samples, with shadows."""
     e = np.zeros_like(p)
-    if bxs:
-        lo = np.array([b[0] for b in bxs])
-        hi = np.array([b[1] for b in bxs])
+    any_box = bxs[0].shape[0] > 0
     for pts, nl, w in samples:
         for j in range(pts.shape[0]):
             v = pts[j] - p
@@ -314,9 +318,9 @@ def direct_irradiance(p, n, samples, bxs):
                 d2 = np.maximum(d2, 0.1 ** 2)
             g = cos_p * cos_l / d2
             live = g > 0
-            if bxs and live.any():
+            if any_box and live.any():
                 idx = np.nonzero(live)[0]
-                blocked = occluded(p[idx] + n[idx] * 1e-3, pts[j], lo, hi)
+                blocked = occluded(p[idx] + n[idx] * 1e-3, pts[j], bxs)
                 g[idx[blocked]] = 0.0
             e += g[:, None] * w[j]
     return e
@@ -413,7 +417,7 @@ def equirect_dirs(width):
     return d.reshape(-1, 3)
 
 
-def room_hits(room, o, d):
+def room_hits(room, o, d, bxs):
     """Nearest surface along rays o + t d from inside the room: (t [N], surf [N], normal [N,3])."""
     size = np.array(room["size"])
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -426,7 +430,7 @@ def room_hits(room, o, d):
                       np.where(pos, WZ1, WZ0)])
     normal = np.zeros_like(d)
     normal[np.arange(len(d)), ax] = np.where(pos, -1.0, 1.0)
-    bt, bi, bax = ray_boxes(o, d, boxes(room))
+    bt, bi, bax = ray_boxes(o, d, bxs)
     closer = bt < t
     t = np.where(closer, bt, t)
     surf = np.where(closer, FURN0 + bi, surf)
@@ -436,9 +440,8 @@ def room_hits(room, o, d):
     return t, surf, normal
 
 
-def shade(room, p, n, surf, samples):
+def shade(room, p, n, surf, samples, bxs):
     """[N,3] outgoing radiance of Lambertian points: direct + the enclosure's indirect term."""
-    bxs = boxes(room)
     rho = albedo(room, surf, p)
     e = direct_irradiance(p, n, samples, bxs)
     return rho / math.pi * (e + room["_indirect"])
@@ -452,11 +455,12 @@ def indirect_irradiance(room, samples, n_pts=600):
     o = np.broadcast_to(np.array(room["camera"], np.float64), d.shape)
     # surface points seen from the camera in random directions stand in for the room's surfaces;
     # each weighted by t^2 / |cos| (the solid angle -> area Jacobian), so big faces count more
-    t, surf, n = room_hits(room, o, d)
+    bxs = boxes(room)
+    t, surf, n = room_hits(room, o, d, bxs)
     p = o + d * t[:, None]
     cosv = np.abs(np.einsum("ij,ij->i", n, d))
     wgt = t * t / np.maximum(cosv, 0.05)
-    e = direct_irradiance(p, n, samples, boxes(room))
+    e = direct_irradiance(p, n, samples, bxs)
     rho = albedo(room, surf, p)
     e_mean = (e * wgt[:, None]).sum(0) / wgt.sum()
     rho_mean = np.clip((rho * wgt[:, None]).sum(0) / wgt.sum(), 0.0, 0.9)
@@ -469,12 +473,13 @@ def render_room(room, width):
     o = np.broadcast_to(np.array(room["camera"], np.float64), d.shape)
     samples = [light_samples(room, light) for light in room["lights"]]
     room = dict(room, _indirect=indirect_irradiance(room, samples))
+    bxs = boxes(room)
     img = np.zeros_like(d)
     for lo in range(0, d.shape[0], 65536):   # in blocks: bounded memory at any width
         sl = slice(lo, lo + 65536)
-        t, surf, n = room_hits(room, o[sl], d[sl])
+        t, surf, n = room_hits(room, o[sl], d[sl], bxs)
         p = o[sl] + d[sl] * t[:, None]
-        out = shade(room, p, n, surf, samples)
+        out = shade(room, p, n, surf, samples, bxs)
         for light in room["lights"]:   # emitters seen directly
             rad = emitter_radiance(room, light)
             if light["type"] == "bulb":
