@@ -6,7 +6,8 @@
 # held out, and refuses a folder it did not make or other rooms in the same dataset; then
 # train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
 # checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
-# step 1 and step 2, the export (.plm), and the exported model in C (parlight info, estimate)
+# step 1 and step 2, the export (.plm), --ema (resumes, never feeds back, ends step 1 on
+# the average), and the exported model in C (parlight info, estimate)
 # against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3);
 # tools/train/int8_sim.py on its int8 quantisations against parlight qcheck.
 # Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
@@ -166,6 +167,60 @@ f=$(ls "$TMP"/data/crops/*.png | head -1)
 "$PY" tools/train/train.py --export-only "$TMP/ck/step1.pt" "$TMP/s1.plm" >/dev/null ||
     fail "--export-only"
 "$BUILD/parlight" info --model "$TMP/s1.plm" >/dev/null || fail "step1 export does not load"
+
+# --- --ema: the moving average of the step-1 weights. It resumes bit-identically, never feeds
+# back (the run's own weights stay those of the plain run: step1_raw.pt = its step1.pt), step 1
+# ends on it (step1.pt, what step 2 and the export start from), and it follows its formula ---
+EMA=(--ema 0.9)
+"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke" --log "$TMP/loge" --max-steps 2 >/dev/null ||
+    fail "--ema: 2 steps"
+"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke" --log "$TMP/loge" --max-steps 4 >/dev/null ||
+    fail "--ema: resume"
+"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke2" --log "$TMP/loge2" --max-steps 4 >/dev/null ||
+    fail "--ema: 4 in one go"
+"$PY" - "$TMP/cke/last.pt" "$TMP/cke2/last.pt" "$TMP/ck2/last.pt" <<'EOF' || fail "--ema resume"
+import sys, torch
+a, b, plain = (torch.load(p, map_location="cpu") for p in sys.argv[1:4])
+d = lambda x, y: max(float((x[k].float() - y[k].float()).abs().max()) for k in x)  # noqa: E731
+assert d(a["ema"], b["ema"]) <= 1e-6, "resumed average differs"
+assert d(a["model"], plain["model"]) <= 1e-5, "the average fed back into the weights"
+assert d(a["ema"], a["model"]) > 1e-4, "the average is the weights"
+print(f"--ema: resumed vs uninterrupted average {d(a['ema'], b['ema']):.3g}, "
+      f"average vs weights {d(a['ema'], a['model']):.3g}")
+EOF
+"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke" --log "$TMP/loge" --export "$TMP/me.plm" >/dev/null ||
+    fail "--ema: finish and export"
+grep -q "step1 epoch 3/3 .* val [^ ]* (average [^ ]*)" "$TMP/loge" ||
+    fail "--ema: no average validation loss in $(cat "$TMP/loge")"
+"$BUILD/parlight" info --model "$TMP/me.plm" | grep -q "moving average (decay 0.9)" ||
+    fail "--ema: provenance does not say so"
+"${TR[@]}" --ema 1 --ckpt-dir "$TMP/cke3" --log "$TMP/loge3" >"$TMP/e.log" 2>&1 && fail "--ema 1 accepted"
+grep -q "expected a decay in \[0, 1)" "$TMP/e.log" || fail "no reason: $(cat "$TMP/e.log")"
+"$PY" - "$TMP/cke" "$TMP/ck/step1.pt" <<'EOF' || fail "--ema step 1"
+import sys, torch
+sys.path[:0] = ["tools/train", "tools"]
+import train
+raw, avg, plain = (torch.load(p, map_location="cpu") for p in
+                   (sys.argv[1] + "/step1_raw.pt", sys.argv[1] + "/step1.pt", sys.argv[2]))
+d = lambda x, y: max(float((x[k].float() - y[k].float()).abs().max()) for k in x)  # noqa: E731
+assert d(raw["model"], plain["model"]) <= 1e-5, "step1_raw.pt is not the plain run's step 1"
+assert d(avg["model"], raw["model"]) > 1e-4, "step1.pt is not the average"
+# the formula: d_t = min(D, (1 + t) / (10 + t)); batch counts copied
+torch.manual_seed(0)
+net, ema = torch.nn.BatchNorm1d(3), torch.nn.BatchNorm1d(3)
+ema.load_state_dict(net.state_dict())
+want = net.weight.detach().clone()
+for t in range(30):
+    with torch.no_grad():
+        net.weight.add_(torch.randn(3))
+    net(torch.randn(8, 3))   # moves running_mean and num_batches_tracked
+    train.ema_update(ema, net, t, 0.9)
+    dt = min(0.9, (1 + t) / (10 + t))
+    want = dt * want + (1 - dt) * net.weight.detach()
+assert torch.allclose(ema.weight, want, atol=1e-6), (ema.weight, want)
+assert int(ema.num_batches_tracked) == 30 and not torch.equal(ema.running_mean, net.running_mean)
+print("--ema: step1_raw.pt is the plain run's step 1, step1.pt the average; formula checked")
+EOF
 
 # --- tools/train/int8_sim.py: its simulation of the int8 executor tracks what qcheck measures
 # (z's SQNR within 3 dB), with and without kept-float layers ---

@@ -7,7 +7,7 @@
                          [--batch 16] [--bf16] [--threads 2] [--export OUT.plm]
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
-                         [--sphere-metric log|relative] [--z-dropout 0] [--erase 0]
+                         [--sphere-metric log|relative] [--z-dropout 0] [--erase 0] [--ema 0]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -48,6 +48,13 @@ one rectangle (5-25% of the area, aspect 1:2..2:1) with the image's mean colour 
 a lamp hidden that way is a lamp just outside the frame, so the lighting has to come from what
 the room shows). Both draw from generators seeded by the seed, the epoch and the batch, so a
 resumed run stays bit-identical.
+Weight averaging (not in the paper; off by default): --ema D keeps an exponential moving average
+of the step-1 network's weights and batch-norm statistics, updated after every step with decay
+min(D, (1 + t) / (10 + t)) at step t; the validation loss of the average is logged beside the
+network's, step 1 ends on the average (step1.pt, then step 2 and the export), and the last
+weights of the run itself are kept in step1_raw.pt (`--step2-from` it for the same run without
+the average). The average never feeds back into training: the run's own weights are the same
+with or without it.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
@@ -91,10 +98,11 @@ COS45 = math.cos(math.radians(45.0))
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
                "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
-               "erase")
+               "erase", "ema")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
-                   "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0}
+                   "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0,
+                   "ema": 0.0}
 
 
 def log_line(path, text):
@@ -317,9 +325,9 @@ def step2_loss(out, gt, cfg, render=None):
 
 # ---- checkpoints ------------------------------------------------------------------------------
 
-def save_ckpt(path, model, opt, state, cfg):
+def save_ckpt(path, model, opt, state, cfg, ema=None):
     obj = {"model": model.state_dict(), "optimizer": opt.state_dict() if opt else None,
-           "state": state, "config": cfg,
+           "state": state, "config": cfg, "ema": ema.state_dict() if ema is not None else None,
            "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state(),
                    "python": random.getstate()}}
     tmp = path + ".tmp"
@@ -352,6 +360,8 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
             + (f", {'network' if cfg.get('init_all') else 'encoder'} initialised from "
                f"{os.path.basename(cfg['init'])}" if cfg.get("init")
                else ", from scratch (no pretrained encoder)")
+            + (f", step 1 ended on its weights' moving average (decay {cfg['ema']:g})"
+               if cfg.get("ema") else "")
             + provenance_extra)
     tensors = export.checked_tensors(model)
     errs = export.check_fold(model, tensors)
@@ -384,7 +394,21 @@ def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32, render=None):
     return tot / len(idx)
 
 
-def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=None):
+def ema_update(ema, model, step, decay):
+    """ema <- d * ema + (1 - d) * model for every floating-point tensor of the state dict
+    (weights and batch-norm statistics), d = min(decay, (1 + step) / (10 + step)); integer
+    buffers (batch counts) are copied."""
+    d = min(decay, (1.0 + step) / (10.0 + step))
+    src = model.state_dict()
+    with torch.no_grad():
+        for k, v in ema.state_dict().items():
+            if v.dtype.is_floating_point:
+                v.mul_(d).add_(src[k], alpha=1.0 - d)
+            else:
+                v.copy_(src[k])
+
+
+def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=None, ema=None):
     n_batches = len(tr) // cfg["batch"]
     if n_batches == 0:
         raise ValueError(f"{len(tr)} training crops: fewer than one batch of {cfg['batch']}")
@@ -418,6 +442,8 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
+            if ema is not None:
+                ema_update(ema, model, state.get("steps", 0), cfg["ema"])
             sums["loss"] += float(loss)
             sums["map"] += parts["map"]
             sums["amb"] += parts["amb"]
@@ -428,12 +454,12 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
             state["batch"] = b + 1
             state["steps"] = state.get("steps", 0) + 1
             if cfg["max_steps"] and state["steps"] >= cfg["max_steps"]:
-                save_ckpt(paths["last"], model, opt, state, cfg)
+                save_ckpt(paths["last"], model, opt, state, cfg, ema)
                 log_line(paths["log"], f"step1 epoch {ep} batch {b + 1}/{n_batches}: stopped at "
                          f"--max-steps {cfg['max_steps']}, loss {float(loss):.6g}")
                 return False
             if time.time() - last_save > 60 * cfg["ckpt_minutes"]:
-                save_ckpt(paths["last"], model, opt, state, cfg)
+                save_ckpt(paths["last"], model, opt, state, cfg, ema)
                 last_save = time.time()
                 log_line(paths["log"], f"step1 epoch {ep + 1} batch {b + 1}/{n_batches}: "
                          f"checkpoint; mean loss so far {sums['loss'] / sums['n']:.6g}, "
@@ -441,15 +467,21 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
         dt = time.time() - t0
         n = max(sums["n"], 1)
         vl = evaluate(model, imgs, gt, va, udirs, cfg, 1, render=render)
+        vl_ema = (f" (average {evaluate(ema, imgs, gt, va, udirs, cfg, 1, render=render):.6g})"
+                  if ema is not None else "")
         log_line(paths["log"], f"step1 epoch {ep + 1}/{cfg['step1_epochs']} lr {lr_at(cfg, ep):.3g} "
                  f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}"
                  + (f" sphere {sums['sphere'] / n:.6g}" if "sphere" in sums else "") + ") "
-                 f"val {vl:.6g} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
+                 f"val {vl:.6g}{vl_ema} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
                  + (" (resumed epoch: rate over its last part)" if resumed_at else ""))
         state.update(epoch=ep + 1, batch=0)
         state.pop("sums", None)
-        save_ckpt(paths["last"], model, opt, state, cfg)
+        save_ckpt(paths["last"], model, opt, state, cfg, ema)
         last_save = time.time()
+    if ema is not None:
+        # the run's own last weights, then the average takes their place for step 2
+        save_ckpt(paths["step1_raw"], model, opt, state, cfg)
+        model.load_state_dict(ema.state_dict())
     save_ckpt(paths["step1"], model, opt, state, cfg)
     return True
 
@@ -577,6 +609,9 @@ def main(argv=None):
                     help="step 1: dropout on z before the fc and the distance head")
     ap.add_argument("--erase", type=float, default=0.0, metavar="P",
                     help="step 1: random erasing of one rectangle per image with probability P")
+    ap.add_argument("--ema", type=float, default=0.0, metavar="D",
+                    help="step 1: keep an exponential moving average of the weights with decay D "
+                         "(e.g. 0.999) and end step 1 on it (0: off)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
     ap.add_argument("--threads", type=int, default=2)
@@ -617,6 +652,8 @@ def main(argv=None):
         for name, v in (("--z-dropout", args.z_dropout), ("--erase", args.erase)):
             if not 0.0 <= v < 1.0:
                 raise ValueError(f"{name} {v}: expected a probability in [0, 1)")
+        if not 0.0 <= args.ema < 1.0:
+            raise ValueError(f"--ema {args.ema}: expected a decay in [0, 1)")
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
         if not (args.lr > 0 and math.isfinite(args.lr)):
@@ -626,6 +663,7 @@ def main(argv=None):
         os.makedirs(args.ckpt_dir, exist_ok=True)
         paths = {"last": os.path.join(args.ckpt_dir, "last.pt"),
                  "step1": os.path.join(args.ckpt_dir, "step1.pt"),
+                 "step1_raw": os.path.join(args.ckpt_dir, "step1_raw.pt"),
                  "final": os.path.join(args.ckpt_dir, "final.pt"), "log": args.log}
 
         t0 = time.time()
@@ -645,7 +683,8 @@ def main(argv=None):
                "w_a": args.w_a, "val_panos": args.val_panos, "held_out": held,
                "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
                "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
-               "z_dropout": args.z_dropout, "erase": args.erase, "bf16": args.bf16, "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
+               "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
+               "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
                "init_all": bool(args.init and args.init_all)}
@@ -657,6 +696,7 @@ def main(argv=None):
         opt = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.9, 0.999))
         state = {"phase": 1, "epoch": 0, "batch": 0, "steps": 0}
         step2_opt = None
+        ema_resume = None
         if os.path.exists(paths["last"]):
             ck = load_ckpt(paths["last"])
             old = ck.get("config", {})
@@ -668,6 +708,7 @@ def main(argv=None):
             cfg["init_all"] = old.get("init_all", False)
             model.load_state_dict(ck["model"])
             state = ck["state"]
+            ema_resume = ck.get("ema")
             if state["phase"] == 1:
                 opt.load_state_dict(ck["optimizer"])
             else:
@@ -712,7 +753,12 @@ def main(argv=None):
         log_line(args.log, f"loaded {len(imgs)} crops in {time.time() - t0:.0f} s")
 
         if state["phase"] == 1:
-            if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render):
+            ema = None
+            if args.ema > 0:
+                ema = ParLightNet(args.n_lights, args.input).eval()
+                ema.load_state_dict(ema_resume if ema_resume is not None else model.state_dict())
+            if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render,
+                               ema):
                 return 0
             state = {"phase": 2, "epoch": 0, "batch": 0, "steps": state.get("steps", 0)}
             save_ckpt(paths["last"], model, None, state, cfg)
