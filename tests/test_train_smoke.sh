@@ -194,6 +194,15 @@ grep -q "step1 epoch 3/3 .* val [^ ]* (average [^ ]*)" "$TMP/loge" ||
     fail "--ema: no average validation loss in $(cat "$TMP/loge")"
 "$BUILD/parlight" info --model "$TMP/me.plm" | grep -q "moving average (decay 0.9)" ||
     fail "--ema: provenance does not say so"
+# a step 2 from the average says so; one from the run's own weights does not
+for s1 in step1 step1_raw; do
+    "${TR[@]}" --ckpt-dir "$TMP/cke-$s1" --log "$TMP/loge-$s1" --step2-from "$TMP/cke/$s1.pt" \
+        --export "$TMP/me-$s1.plm" >/dev/null || fail "--step2-from $s1.pt"
+done
+"$BUILD/parlight" info --model "$TMP/me-step1.plm" | grep -q "moving average (decay 0.9)" ||
+    fail "--ema: a step 2 from step1.pt does not say it starts from the average"
+"$BUILD/parlight" info --model "$TMP/me-step1_raw.plm" | grep -q "moving average" &&
+    fail "--ema: a step 2 from step1_raw.pt claims the average"
 "${TR[@]}" --ema 1 --ckpt-dir "$TMP/cke3" --log "$TMP/loge3" >"$TMP/e.log" 2>&1 && fail "--ema 1 accepted"
 grep -q "expected a decay in \[0, 1)" "$TMP/e.log" || fail "no reason: $(cat "$TMP/e.log")"
 "$PY" - "$TMP/cke" "$TMP/ck/step1.pt" <<'EOF' || fail "--ema step 1"

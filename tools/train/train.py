@@ -360,8 +360,8 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
             + (f", {'network' if cfg.get('init_all') else 'encoder'} initialised from "
                f"{os.path.basename(cfg['init'])}" if cfg.get("init")
                else ", from scratch (no pretrained encoder)")
-            + (f", step 1 ended on its weights' moving average (decay {cfg['ema']:g})"
-               if cfg.get("ema") else "")
+            + (f", step 1 ended on its weights' moving average (decay {cfg['step1_average']:g})"
+               if cfg.get("step1_average") else "")
             + provenance_extra)
     tensors = export.checked_tensors(model)
     errs = export.check_fold(model, tensors)
@@ -482,6 +482,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
         # the run's own last weights, then the average takes their place for step 2
         save_ckpt(paths["step1_raw"], model, opt, state, cfg)
         model.load_state_dict(ema.state_dict())
+        cfg["step1_average"] = cfg["ema"]   # what the network now is (provenance)
     save_ckpt(paths["step1"], model, opt, state, cfg)
     return True
 
@@ -706,6 +707,7 @@ def main(argv=None):
                                  f"differ); use another --ckpt-dir")
             cfg["init"] = old.get("init")   # the run's starting point, whatever --init says now
             cfg["init_all"] = old.get("init_all", False)
+            cfg["step1_average"] = old.get("step1_average", 0.0)
             model.load_state_dict(ck["model"])
             state = ck["state"]
             ema_resume = ck.get("ema")
@@ -728,6 +730,7 @@ def main(argv=None):
             model.load_state_dict(ck["model"])
             cfg["init"] = old.get("init")
             cfg["step2_from"] = os.path.abspath(args.step2_from)
+            cfg["step1_average"] = old.get("step1_average", 0.0)
             state = {"phase": 2, "epoch": 0, "batch": 0, "steps": 0}
             log_line(args.log, f"start step 2 from {args.step2_from} (its step 1: "
                      f"{ck.get('state')}), config "
