@@ -115,13 +115,19 @@ assert worst <= 1e-5, worst
 EOF
 # the regularisers (--z-dropout, --erase) draw from seeded generators: a resumed run stays
 # bit-identical, and they change what is learnt
-REG=(--z-dropout 0.3 --erase 0.9)
-"${TR[@]}" "${REG[@]}" --ckpt-dir "$TMP/ckr" --log "$TMP/logr" --max-steps 2 >/dev/null ||
-    fail "regularised: 2 steps"
-"${TR[@]}" "${REG[@]}" --ckpt-dir "$TMP/ckr" --log "$TMP/logr" --max-steps 4 >/dev/null ||
-    fail "regularised: resume"
-"${TR[@]}" "${REG[@]}" --ckpt-dir "$TMP/ckr2" --log "$TMP/logr2" --max-steps 4 >/dev/null ||
-    fail "regularised: 4 in one go"
+# resume_pair DIR WHAT FLAGS...: 2 step-1 batches into $TMP/DIR, a resume to 4 there, and 4 in
+# one go into $TMP/DIR2, all with FLAGS
+resume_pair() {
+    local d=$1 what=$2
+    shift 2
+    "${TR[@]}" "$@" --ckpt-dir "$TMP/$d" --log "$TMP/log-$d" --max-steps 2 >/dev/null ||
+        fail "$what: 2 steps"
+    "${TR[@]}" "$@" --ckpt-dir "$TMP/$d" --log "$TMP/log-$d" --max-steps 4 >/dev/null ||
+        fail "$what: resume"
+    "${TR[@]}" "$@" --ckpt-dir "$TMP/${d}2" --log "$TMP/log-${d}2" --max-steps 4 >/dev/null ||
+        fail "$what: 4 in one go"
+}
+resume_pair ckr regularised --z-dropout 0.3 --erase 0.9
 "${TR[@]}" --z-dropout 0.3 --ckpt-dir "$TMP/ckr" --log "$TMP/logr" --max-steps 5 >"$TMP/r.log" 2>&1 &&
     fail "resumed with another --erase"
 grep -q "another configuration (erase differ)" "$TMP/r.log" || fail "no reason: $(cat "$TMP/r.log")"
@@ -172,12 +178,7 @@ f=$(ls "$TMP"/data/crops/*.png | head -1)
 # back (the run's own weights stay those of the plain run: step1_raw.pt = its step1.pt), step 1
 # ends on it (step1.pt, what step 2 and the export start from), and it follows its formula ---
 EMA=(--ema 0.9)
-"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke" --log "$TMP/loge" --max-steps 2 >/dev/null ||
-    fail "--ema: 2 steps"
-"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke" --log "$TMP/loge" --max-steps 4 >/dev/null ||
-    fail "--ema: resume"
-"${TR[@]}" "${EMA[@]}" --ckpt-dir "$TMP/cke2" --log "$TMP/loge2" --max-steps 4 >/dev/null ||
-    fail "--ema: 4 in one go"
+resume_pair cke --ema "${EMA[@]}"
 "$PY" - "$TMP/cke/last.pt" "$TMP/cke2/last.pt" "$TMP/ck2/last.pt" <<'EOF' || fail "--ema resume"
 import sys, torch
 a, b, plain = (torch.load(p, map_location="cpu") for p in sys.argv[1:4])
