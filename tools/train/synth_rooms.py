@@ -256,20 +256,28 @@ def boxes(room):
             np.array([b["hi"] for b in f], np.float64).reshape(-1, 3))
 
 
-def slab(p, v, lo, hi, t_lo):
-    """The slab test of rays p + t v ([N, 3]) against the box lo..hi ([3]), one axis at a time
-    on 1-D arrays: (entry t, exit t, entry axis), each [N], with the entry t at least t_lo. The
-    ray meets the box where entry <= exit."""
-    v = np.where(np.abs(v) < 1e-9, 1e-9, v)          # no 0 * inf below
-    tmin = np.full(p.shape[0], t_lo)
-    tmax = np.full(p.shape[0], np.inf)
-    axis = np.zeros(p.shape[0], np.int64)
+def ray_columns(p, v):
+    """Rays p + t v ([N, 3]) as the slab test reads them: p's columns and 1/v's, contiguous 1-D
+    arrays (components of v under 1e-9 made 1e-9: no 0 * inf)."""
+    v = np.where(np.abs(v) < 1e-9, 1e-9, v)
+    return ([np.ascontiguousarray(p[:, a]) for a in range(3)],
+            [np.ascontiguousarray(1.0 / v[:, a]) for a in range(3)])
+
+
+def slab(rays, lo, hi, t_lo, with_axis=False):
+    """The slab test of rays (ray_columns) against the box lo..hi ([3]), one axis at a time:
+    (entry t, exit t, entry axis or None), each [N], with the entry t at least t_lo. A ray
+    meets the box where entry <= exit."""
+    pc, ic = rays
+    tmin = np.full(pc[0].shape[0], t_lo)
+    tmax = np.full(pc[0].shape[0], np.inf)
+    axis = np.zeros(pc[0].shape[0], np.int64) if with_axis else None
     for a in range(3):
-        inv = 1.0 / v[:, a]
-        t1 = (lo[a] - p[:, a]) * inv
-        t2 = (hi[a] - p[:, a]) * inv
+        t1 = (lo[a] - pc[a]) * ic[a]
+        t2 = (hi[a] - pc[a]) * ic[a]
         near = np.minimum(t1, t2)
-        axis = np.where(near > tmin, a, axis)
+        if with_axis:
+            axis[near > tmin] = a
         np.maximum(tmin, near, out=tmin)
         np.minimum(tmax, np.maximum(t1, t2), out=tmax)
     return tmin, tmax, axis
@@ -281,8 +289,9 @@ def ray_boxes(o, d, bxs):
     best = np.full(d.shape[0], np.inf)
     which = np.full(d.shape[0], -1)
     axis = np.zeros(d.shape[0], np.int64)
+    rays = ray_columns(o, d)
     for i, (lo, hi) in enumerate(zip(*bxs)):
-        tmin, tmax, ax = slab(o, d, lo, hi, -np.inf)
+        tmin, tmax, ax = slab(rays, lo, hi, -np.inf, with_axis=True)
         hit = (tmax >= tmin) & (tmin > EPS) & (tmin < best)
         best = np.where(hit, tmin, best)
         which = np.where(hit, i, which)
@@ -292,10 +301,10 @@ def ray_boxes(o, d, bxs):
 
 def occluded(p, q, bxs):
     """[N] bool: whether the segment p -> q (q [3]) crosses one of the boxes bxs = (lo, hi)."""
-    v = q - p
+    rays = ray_columns(p, q - p)
     out = np.zeros(p.shape[0], bool)
     for lo, hi in zip(*bxs):
-        tmin, tmax, _ = slab(p, v, lo, hi, EPS)
+        tmin, tmax, _ = slab(rays, lo, hi, EPS)
         out |= np.minimum(tmax, 1 - EPS) >= tmin
     return out
 
