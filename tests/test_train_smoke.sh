@@ -167,6 +167,7 @@ grep -q "step2 epoch 2/2" "$TMP/log" || fail "no step-2 epoch in $(cat "$TMP/log
 "$BUILD/parlight" info --model "$TMP/m.plm" >"$TMP/info" || fail "parlight info"
 grep -q "128 x 96" "$TMP/info" || fail "input size not 128 x 96: $(cat "$TMP/info")"
 grep -q "trained by tools/train/train.py" "$TMP/info" || fail "no provenance: $(cat "$TMP/info")"
+grep -q "torch [^ ,]* on 1 thread(s)" "$TMP/info" || fail "provenance lacks the threads: $(cat "$TMP/info")"
 f=$(ls "$TMP"/data/crops/*.png | head -1)
 "$PY" tools/train/check_export.py --ckpt "$TMP/ck/final.pt" --plm "$TMP/m.plm" --frame "$f" \
     --parlight "$BUILD/parlight" || fail "C and PyTorch disagree"

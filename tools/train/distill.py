@@ -144,6 +144,8 @@ def main(argv=None):
             obj = {"model": model.state_dict(), "proj": proj.state_dict(),
                    "optimizer": opt.state_dict(), "state": state,
                    "config": {"input": list(args.input), "teacher": args.teacher,
+                              "seed": args.seed, "epochs": args.epochs, "bf16": args.bf16,
+                              "threads": args.threads,   # the weights depend on it
                               "data_index_sha256": digest, "held_out": held,
                               "date": f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ}"}}
             torch.save(obj, args.out + ".tmp")

@@ -62,7 +62,10 @@ Checkpoints (--ckpt-dir): last.pt every --ckpt-minutes and at each epoch end (mo
 step, epoch, batch within the epoch, RNG states, configuration), step1.pt when step 1 ends,
 final.pt at the end; written to a temporary file and renamed. Rerunning the same command resumes
 from last.pt (an epoch's batch order is a function of the seed and the epoch, so a resumed epoch
-continues where it stopped). A checkpoint made with another configuration is refused.
+continues where it stopped). A checkpoint made with another configuration is refused. The
+configuration keeps the thread counts the run used (the export's provenance names them): on this
+CPU a run is bit-for-bit repeatable with the same data, start, seed and --threads, and another
+thread count gives another network (reduction order), as another distilled encoder does.
 
 The log (--log) gets one line per epoch: date, step, epoch, lr, train and validation losses,
 images per second. The model is exported with tools/export.py's code path (folded tensors,
@@ -355,7 +358,10 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
     prov = (f"trained by tools/train/train.py: checkpoint {os.path.basename(ckpt_path)} sha256 "
             f"{digest[:16]}, step {st.get('phase')} epoch {st.get('epoch')}, data "
             f"{cfg.get('data')} (index sha256 {str(cfg.get('data_index_sha256'))[:16]}), input "
-            f"{cfg['input'][0]}x{cfg['input'][1]}, torch {torch.__version__}, exported "
+            f"{cfg['input'][0]}x{cfg['input'][1]}, torch {torch.__version__}"
+            + (f" on {', then '.join(map(str, cfg['threads']))} thread(s)"
+               if cfg.get("threads") else "")
+            + ", exported "
             f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ}"
             + (f", {'network' if cfg.get('init_all') else 'encoder'} initialised from "
                f"{os.path.basename(cfg['init'])}" if cfg.get("init")
@@ -686,6 +692,7 @@ def main(argv=None):
                "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
                "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
+               "threads": [max(1, args.threads)],
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
                "init_all": bool(args.init and args.init_all)}
@@ -708,6 +715,9 @@ def main(argv=None):
             cfg["init"] = old.get("init")   # the run's starting point, whatever --init says now
             cfg["init_all"] = old.get("init_all", False)
             cfg["step1_average"] = old.get("step1_average", 0.0)
+            # the weights depend on the thread count (reduction order): keep every count used
+            used = old.get("threads", [])
+            cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
             model.load_state_dict(ck["model"])
             state = ck["state"]
             ema_resume = ck.get("ema")
@@ -731,6 +741,8 @@ def main(argv=None):
             cfg["init"] = old.get("init")
             cfg["step2_from"] = os.path.abspath(args.step2_from)
             cfg["step1_average"] = old.get("step1_average", 0.0)
+            used = old.get("threads", [])
+            cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
             state = {"phase": 2, "epoch": 0, "batch": 0, "steps": 0}
             log_line(args.log, f"start step 2 from {args.step2_from} (its step 1: "
                      f"{ck.get('state')}), config "
