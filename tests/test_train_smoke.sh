@@ -216,16 +216,18 @@ raw, avg, plain = (torch.load(p, map_location="cpu") for p in
 d = lambda x, y: max(float((x[k].float() - y[k].float()).abs().max()) for k in x)  # noqa: E731
 assert d(raw["model"], plain["model"]) <= 1e-5, "step1_raw.pt is not the plain run's step 1"
 assert d(avg["model"], raw["model"]) > 1e-4, "step1.pt is not the average"
-# the formula: d_t = min(D, (1 + t) / (10 + t)); batch counts copied
+# the formula: d_t = min(D, (1 + t) / (10 + t)); batch counts copied; the pairs, gathered once,
+# follow the network as it changes in place
 torch.manual_seed(0)
 net, ema = torch.nn.BatchNorm1d(3), torch.nn.BatchNorm1d(3)
 ema.load_state_dict(net.state_dict())
+pairs = train.ema_pairs(ema, net)
 want = net.weight.detach().clone()
 for t in range(30):
     with torch.no_grad():
         net.weight.add_(torch.randn(3))
     net(torch.randn(8, 3))   # moves running_mean and num_batches_tracked
-    train.ema_update(ema, net, t, 0.9)
+    train.ema_update(pairs, t, 0.9)
     dt = min(0.9, (1 + t) / (10 + t))
     want = dt * want + (1 - dt) * net.weight.detach()
 assert torch.allclose(ema.weight, want, atol=1e-6), (ema.weight, want)

@@ -378,6 +378,16 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
 
 # ---- training ---------------------------------------------------------------------------------
 
+def inherit(cfg, old):
+    """What a run takes from the checkpoint it continues (old: that checkpoint's config): its
+    starting point, whether step 1 ended on the moving average, and every thread count used so
+    far (the weights depend on the count: reduction order)."""
+    cfg["init"] = old.get("init")
+    cfg["step1_average"] = old.get("step1_average", 0.0)
+    used = old.get("threads", [])
+    cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
+
+
 def lr_at(cfg, epoch):
     return cfg["lr"] * 0.5 ** (epoch // cfg["halve_every"])
 
@@ -400,18 +410,24 @@ def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32, render=None):
     return tot / len(idx)
 
 
-def ema_update(ema, model, step, decay):
-    """ema <- d * ema + (1 - d) * model for every floating-point tensor of the state dict
-    (weights and batch-norm statistics), d = min(decay, (1 + step) / (10 + step)); integer
-    buffers (batch counts) are copied."""
-    d = min(decay, (1.0 + step) / (10.0 + step))
+def ema_pairs(ema, model):
+    """(average, model) tensor pairs of the two state dicts, gathered once per run: the tensors
+    share storage with the modules' parameters and buffers, which train in place."""
     src = model.state_dict()
+    return [(v, src[k]) for k, v in ema.state_dict().items()]
+
+
+def ema_update(pairs, step, decay):
+    """ema <- d * ema + (1 - d) * model for every floating-point tensor of the pairs (weights
+    and batch-norm statistics), d = min(decay, (1 + step) / (10 + step)); integer buffers
+    (batch counts) are copied."""
+    d = min(decay, (1.0 + step) / (10.0 + step))
     with torch.no_grad():
-        for k, v in ema.state_dict().items():
+        for v, m in pairs:
             if v.dtype.is_floating_point:
-                v.mul_(d).add_(src[k], alpha=1.0 - d)
+                v.mul_(d).add_(m, alpha=1.0 - d)
             else:
-                v.copy_(src[k])
+                v.copy_(m)
 
 
 def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=None, ema=None):
@@ -419,6 +435,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
     if n_batches == 0:
         raise ValueError(f"{len(tr)} training crops: fewer than one batch of {cfg['batch']}")
     last_save = time.time()
+    pairs = ema_pairs(ema, model) if ema is not None else None
     while state["epoch"] < cfg["step1_epochs"]:
         ep = state["epoch"]
         for grp in opt.param_groups:
@@ -449,7 +466,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
             loss.backward()
             opt.step()
             if ema is not None:
-                ema_update(ema, model, state.get("steps", 0), cfg["ema"])
+                ema_update(pairs, state.get("steps", 0), cfg["ema"])
             sums["loss"] += float(loss)
             sums["map"] += parts["map"]
             sums["amb"] += parts["amb"]
@@ -712,12 +729,8 @@ def main(argv=None):
             if diff:
                 raise ValueError(f"{paths['last']}: made with another configuration ({', '.join(diff)} "
                                  f"differ); use another --ckpt-dir")
-            cfg["init"] = old.get("init")   # the run's starting point, whatever --init says now
+            inherit(cfg, old)               # whatever --init says now
             cfg["init_all"] = old.get("init_all", False)
-            cfg["step1_average"] = old.get("step1_average", 0.0)
-            # the weights depend on the thread count (reduction order): keep every count used
-            used = old.get("threads", [])
-            cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
             model.load_state_dict(ck["model"])
             state = ck["state"]
             ema_resume = ck.get("ema")
@@ -738,11 +751,8 @@ def main(argv=None):
                 raise ValueError(f"{args.step2_from}: not a train.py checkpoint of input "
                                  f"{cfg['input']} with {cfg['n_lights']} lights")
             model.load_state_dict(ck["model"])
-            cfg["init"] = old.get("init")
+            inherit(cfg, old)
             cfg["step2_from"] = os.path.abspath(args.step2_from)
-            cfg["step1_average"] = old.get("step1_average", 0.0)
-            used = old.get("threads", [])
-            cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
             state = {"phase": 2, "epoch": 0, "batch": 0, "steps": 0}
             log_line(args.log, f"start step 2 from {args.step2_from} (its step 1: "
                      f"{ck.get('state')}), config "
