@@ -14,12 +14,15 @@ then standardised per channel over the training crops. Student: relu(densenet121
 (ParLightNet.latent's map) -> 1x1 conv 1024 -> 1280 (trained with it, then dropped) -> L2 to the
 standardised teacher map. The crops of train.py's held-out panoramas (same --val-panos rule) are
 left out, and their distillation loss is logged as validation. Checkpoint every epoch (resumes
-by rerunning); the checkpoint's "model" is a whole ParLightNet state_dict (heads at their
-initialisation) that train.py --init reads the encoder from.
+by rerunning, with a larger --epochs to continue; another seed, input, teacher, batch, lr, bf16
+or dataset into the same --out is refused); the checkpoint's "model" is a whole ParLightNet
+state_dict (heads at their initialisation) that train.py --init reads the encoder from. On the
+CPU a run is repeatable for a given --threads; the counts used are recorded in the checkpoint.
 """
 
 import argparse
 import datetime
+import hashlib
 import os
 import sys
 import time
@@ -35,6 +38,20 @@ sys.path.insert(0, os.path.dirname(HERE))
 import tflite_teacher  # noqa: E402
 import train  # noqa: E402
 from model import ParLightNet  # noqa: E402
+
+
+# what a resumed run must share with the checkpoint it continues (keys an older checkpoint lacks
+# are not compared); --epochs may grow, and the thread count is recorded, not compared
+RESUME_KEYS = ("input", "teacher_sha256", "seed", "bf16", "batch", "lr", "data_index_sha256",
+               "held_out")
+
+
+def file_sha256(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def teacher_maps(teacher, data, idx_rows, grid):
@@ -81,18 +98,41 @@ def main(argv=None):
                                                           args.limit)
         with open(os.path.join(args.data, "index.tsv"), encoding="utf-8") as f:
             pngs = [ln.split("\t")[0] for ln in f][1:][:len(imgs)]
+        tr = torch.nonzero(~val).flatten()
+        va = torch.nonzero(val).flatten()
+        if len(tr) < args.batch:
+            raise ValueError(f"{args.data}: {len(tr)} training crops, fewer than one batch of "
+                             f"{args.batch}")
         grid = (args.input[0] // 32, args.input[1] // 32)
-        cache = os.path.splitext(args.out)[0] + f"-teacher-{digest[:12]}-{grid[0]}x{grid[1]}.pt"
+        tsha = file_sha256(args.teacher)
+        cfg = {"input": list(args.input), "teacher": args.teacher, "teacher_sha256": tsha,
+               "seed": args.seed, "epochs": args.epochs, "bf16": args.bf16, "batch": args.batch,
+               "lr": args.lr, "threads": [max(1, args.threads)],   # the weights depend on it
+               "data_index_sha256": digest, "held_out": held}
+        ck = None
+        if os.path.exists(args.out):   # checked before the teacher maps, which take minutes
+            ck = train.load_ckpt(args.out)
+            if not isinstance(ck, dict) or not {"model", "proj", "optimizer", "state",
+                                                "config"} <= set(ck):
+                raise ValueError(f"{args.out}: not a distill.py checkpoint; use another --out")
+            old = ck["config"]
+            diff = [k for k in RESUME_KEYS if k in old and old[k] != cfg[k]]
+            if diff:
+                raise ValueError(f"{args.out}: made with another configuration ({', '.join(diff)} "
+                                 f"differ); use another --out")
+            used = old.get("threads", [])
+            used = [used] if isinstance(used, int) else used
+            cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
+        cache = (os.path.splitext(args.out)[0]
+                 + f"-teacher-{digest[:12]}-{tsha[:8]}-{grid[0]}x{grid[1]}.pt")
         if os.path.exists(cache):
-            tmaps = torch.load(cache)
+            tmaps = train.load_ckpt(cache)
         else:
             t0 = time.time()
             tmaps = teacher_maps(tflite_teacher.Teacher(args.teacher), args.data, pngs, grid)
             torch.save(tmaps, cache + ".tmp")
             os.replace(cache + ".tmp", cache)
             train.log_line(log, f"teacher maps of {len(pngs)} crops x2 in {time.time() - t0:.0f} s")
-        tr = torch.nonzero(~val).flatten()
-        va = torch.nonzero(val).flatten()
         mu = tmaps[tr].mean(dim=(0, 1, 3, 4), keepdim=True)[0]
         sd = tmaps[tr].std(dim=(0, 1, 3, 4), keepdim=True)[0].clamp_min(1e-3)
         target = (tmaps - mu) / sd
@@ -103,8 +143,7 @@ def main(argv=None):
         params = list(model.features.parameters()) + list(proj.parameters())
         opt = torch.optim.Adam(params, lr=args.lr)
         state = {"epoch": 0, "steps": 0}
-        if os.path.exists(args.out):
-            ck = torch.load(args.out, map_location="cpu")
+        if ck is not None:
             model.load_state_dict(ck["model"])
             proj.load_state_dict(ck["proj"])
             opt.load_state_dict(ck["optimizer"])
@@ -143,11 +182,8 @@ def main(argv=None):
             state["epoch"] = ep + 1
             obj = {"model": model.state_dict(), "proj": proj.state_dict(),
                    "optimizer": opt.state_dict(), "state": state,
-                   "config": {"input": list(args.input), "teacher": args.teacher,
-                              "seed": args.seed, "epochs": args.epochs, "bf16": args.bf16,
-                              "threads": args.threads,   # the weights depend on it
-                              "data_index_sha256": digest, "held_out": held,
-                              "date": f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ}"}}
+                   "config": dict(cfg, date=datetime.datetime.now(datetime.timezone.utc)
+                                  .strftime("%Y-%m-%dT%H:%M:%SZ"))}
             torch.save(obj, args.out + ".tmp")
             os.replace(args.out + ".tmp", args.out)
             dt = time.time() - t0
