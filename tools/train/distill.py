@@ -120,9 +120,7 @@ def main(argv=None):
             if diff:
                 raise ValueError(f"{args.out}: made with another configuration ({', '.join(diff)} "
                                  f"differ); use another --out")
-            used = old.get("threads", [])
-            used = [used] if isinstance(used, int) else used
-            cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
+            cfg["threads"] = train.threads_used(old.get("threads"), cfg["threads"])
         cache = (os.path.splitext(args.out)[0]
                  + f"-teacher-{digest[:12]}-{tsha[:8]}-{grid[0]}x{grid[1]}.pt")
         if os.path.exists(cache):

@@ -378,14 +378,20 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
 
 # ---- training ---------------------------------------------------------------------------------
 
+def threads_used(old, now):
+    """Every thread count a continued run has used (old: the checkpoint's record, a list or, in
+    older checkpoints, one int; now: [this run's count]): the weights depend on the count."""
+    used = [old] if isinstance(old, int) else list(old or [])
+    return used + now if used[-1:] != now else used
+
+
 def inherit(cfg, old):
     """What a run takes from the checkpoint it continues (old: that checkpoint's config): its
     starting point, whether step 1 ended on the moving average, and every thread count used so
     far (the weights depend on the count: reduction order)."""
     cfg["init"] = old.get("init")
     cfg["step1_average"] = old.get("step1_average", 0.0)
-    used = old.get("threads", [])
-    cfg["threads"] = used + cfg["threads"] if used[-1:] != cfg["threads"] else used
+    cfg["threads"] = threads_used(old.get("threads"), cfg["threads"])
 
 
 def lr_at(cfg, epoch):
