@@ -14,6 +14,8 @@
 #include "app/light_io.h"
 #include "app/lightdata.h"
 #include "light/crop.h"
+#include "light/light.h"
+#include "light/eval.h"
 #include "light/extract.h"
 #include "port/hdr_io.h"
 #include "port/image_jpeg.h"
@@ -48,6 +50,9 @@ static void usage(FILE *f)
         "  --gamma G           response exponent 1/G (default 2.2; 1 = linear)\n"
         "  --out FILE          the crop: .png, or .jpg/.jpeg (quality --quality, default 90)\n"
         "  --gt FILE           the ground-truth JSON\n"
+        "  --gt-map W          add the panorama itself to GT.json, rotated into the crop's\n"
+        "                      camera frame, times k, area-averaged to W x W/2 (even, 4..256):\n"
+        "                      field radiance_map (docs/EXTRACTION.md, \"Crops\")\n"
         "  --batch N           batch mode: N crops (1..64)\n"
         "  --out-dir DIR       batch mode output folder (created if missing)\n"
         "  --format png|jpg    batch mode image format (default png)\n"
@@ -71,9 +76,36 @@ static int write_crop(const char *path, const pl_image_u8 *img, int quality)
     return pl_image_write_rgb8(path, img);
 }
 
+/* The crop's radiance map for --gt-map: the panorama in the crop's camera frame on the crop's
+ * scale (pl_eval_envmap_to_camera at the truth render's width, so the rotation is sampled finely),
+ * then area-averaged to width x width/2 (pl_envmap_downsample). */
+static int radiance_map(const pl_image_f32 *pano, const pl_crop_params *cp, double k, int width,
+                        pl_image_f32 *out)
+{
+    pl_image_f32 cam = {0, 0, NULL};
+    int rc = pl_eval_envmap_to_camera(pano, cp, k, PL_EVAL_TRUTH_MAP_WIDTH, &cam);
+    if (rc < 0) return rc;
+    rc = pl_envmap_downsample(&cam, width, out);
+    pl_image_f32_free(&cam);
+    return rc;
+}
+
+static void put_map(FILE *f, const pl_image_f32 *m)
+{
+    fprintf(f,
+            ",\"radiance_map\":{\"width\":%d,\"height\":%d,\"frame\":\"crop camera, "
+            "equirectangular (docs/EXTRACTION.md)\",\"scale\":\"linear radiance times "
+            "exposure_scale\",\"rgb\":[",
+            m->width, m->height);
+    size_t n = (size_t)m->width * (size_t)m->height * 3;
+    for (size_t i = 0; i < n; i++)
+        fprintf(f, "%s%.5g", i ? "," : "", (double)m->data[i]);
+    fputs("]}", f);
+}
+
 static int write_gt(const char *path, const char *src, const pl_image_f32 *pano,
                     const pl_lighting *L, const pl_extract_params *ep, const pl_extract_info *info,
-                    const pl_crop_params *cp, double k, const char *image)
+                    const pl_crop_params *cp, double k, const char *image, const pl_image_f32 *map)
 {
     FILE *f = fopen(path, "w");
     if (!f) return pl_error(PL_E_IO, "%s: cannot create", path);
@@ -85,9 +117,11 @@ static int write_gt(const char *path, const char *src, const pl_image_f32 *pano,
             ",\"frame\":\"crop camera (x right, y up, looking along -z)\",\"exposure_scale\":%.9g,"
             "\"yaw_deg\":%.9g,\"pitch_deg\":%.9g,\"fov_deg\":%.9g,\"width\":%d,\"height\":%d,"
             "\"exposure_ev\":%.9g,\"gamma\":%.9g,\"exposure_rule\":\"k = 2^ev * 0.18 / median "
-            "luminance of the linear crop\"}\n",
+            "luminance of the linear crop\"",
             k, cp->yaw_deg, cp->pitch_deg, cp->fov_deg, cp->width, cp->height, cp->exposure_ev,
             cp->gamma);
+    if (map) put_map(f, map);
+    fputs("}\n", f);
     int bad = ferror(f);
     if (fclose(f) != 0) bad = 1;
     if (rc < 0) return rc;
@@ -98,7 +132,8 @@ static int write_gt(const char *path, const char *src, const pl_image_f32 *pano,
 /* One crop: image + ground truth. */
 static int do_crop(const char *src, const pl_image_f32 *pano, const pl_lighting *Lp,
                    const pl_extract_params *ep, const pl_extract_info *info,
-                   const pl_crop_params *cp, const char *out, const char *gt, int quality)
+                   const pl_crop_params *cp, const char *out, const char *gt, int quality,
+                   int map_width)
 {
     pl_image_f32 lin = {0, 0, NULL};
     pl_image_u8 ldr = {0, 0, 0, NULL};
@@ -113,8 +148,13 @@ static int do_crop(const char *src, const pl_image_f32 *pano, const pl_lighting 
     if (rc < 0 || !gt) return rc;
     pl_lighting Lc;
     if ((rc = pl_crop_lighting(Lp, cp, k, &Lc)) < 0) return rc;
+    pl_image_f32 map = {0, 0, NULL};
+    if (map_width && (rc = radiance_map(pano, cp, k, map_width, &map)) < 0) return rc;
     const char *base = strrchr(out, '/');
-    return write_gt(gt, src, pano, &Lc, ep, info, cp, k, base ? base + 1 : out);
+    rc = write_gt(gt, src, pano, &Lc, ep, info, cp, k, base ? base + 1 : out,
+                  map_width ? &map : NULL);
+    pl_image_f32_free(&map);
+    return rc;
 }
 
 static int parse_size(const char *s, int *w, int *h)
@@ -140,6 +180,7 @@ int cmd_crop(int argc, char **argv)
                                          {"gamma", required_argument, 0, 'g'},
                                          {"out", required_argument, 0, 'o'},
                                          {"gt", required_argument, 0, 't'},
+                                         {"gt-map", required_argument, 0, 'm'},
                                          {"batch", required_argument, 0, 'b'},
                                          {"out-dir", required_argument, 0, 'd'},
                                          {"format", required_argument, 0, 'F'},
@@ -149,7 +190,7 @@ int cmd_crop(int argc, char **argv)
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *hdr = NULL, *out = NULL, *gt = NULL, *dir = NULL, *fmt = "png";
-    int batch = 0, quality = 90, force = 0, have_yaw = 0;
+    int batch = 0, quality = 90, force = 0, have_yaw = 0, map_width = 0;
     pl_crop_params cp;
     pl_crop_default_params(&cp);
     pl_extract_params ep;
@@ -186,6 +227,13 @@ int cmd_crop(int argc, char **argv)
             break;
         case 't':
             gt = optarg;
+            break;
+        case 'm':
+            if (cli_int("crop", "--gt-map", optarg, 4, 256, &map_width) < 0) return 2;
+            if (map_width % 2) {
+                fprintf(stderr, "parlight crop: --gt-map %d: expected an even width\n", map_width);
+                return 2;
+            }
             break;
         case 'b':
             if (cli_int("crop", "--batch", optarg, 1, 64, &batch) < 0) return 2;
@@ -291,12 +339,13 @@ int cmd_crop(int argc, char **argv)
         return 1;
     }
     if (!batch) {
-        rc = do_crop(hdr, &pano, &L, &ep, &info, &cp, out, gt, quality);
+        rc = do_crop(hdr, &pano, &L, &ep, &info, &cp, out, gt, quality, map_width);
     } else {
         for (int i = 0; i < batch && rc == 0; i++) {
             cp.yaw_deg = 360.0 * i / batch;
             cp.pitch_deg = cp.pitch_deg; /* --pitch applies to all (default 0) */
-            rc = do_crop(hdr, &pano, &L, &ep, &info, &cp, names[i][0], names[i][1], quality);
+            rc = do_crop(hdr, &pano, &L, &ep, &info, &cp, names[i][0], names[i][1], quality,
+                         map_width);
             if (rc == 0) printf("%s %s\n", names[i][0], names[i][1]);
         }
     }

@@ -99,7 +99,7 @@ def crop_base(name, k):
     return f"{'synth_' if name.startswith('synth/') else ''}{stem}_k{k:03d}"
 
 
-def make_one(parlight, row, k, seed, size, out):
+def make_one(parlight, row, k, seed, size, out, gt_map=0):
     """One crop (resumable: skipped when its .json exists). Returns (png, json) names."""
     name = row["file"]
     base = crop_base(name, k)
@@ -113,6 +113,8 @@ def make_one(parlight, row, k, seed, size, out):
            "--yaw", repr(p["yaw"]), "--pitch", repr(p["pitch"]), "--fov", repr(p["fov"]),
            "--size", f"{size[1]}x{size[0]}", "--exposure", repr(p["exposure"]),
            "--gamma", repr(p["gamma"]), "--out", tmp_png, "--gt", tmp_js, "--force"]
+    if gt_map:
+        cmd += ["--gt-map", str(gt_map)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)}: exit {r.returncode}: {r.stderr.strip()}")
@@ -149,6 +151,9 @@ def main(argv=None):
     ap.add_argument("--size", type=parse_size, default=(192, 256), metavar="WxH",
                     help="crop size (default 256x192)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--gt-map", type=int, default=32, metavar="W",
+                    help="also store each crop's panorama in its camera frame, W x W/2, in the "
+                    "ground truth (parlight crop --gt-map; train.py --w-map); 0: none")
     ap.add_argument("--scenes", default="indoor,indoor-semi,outdoor",
                     help="MANIFEST scene classes to use (comma-separated)")
     ap.add_argument("--limit", type=int, default=0, help="only the first N panoramas (tests)")
@@ -164,6 +169,8 @@ def main(argv=None):
     try:
         if not 1 <= args.crops_per_pano <= 10000:
             raise ValueError(f"--crops-per-pano {args.crops_per_pano}: expected 1..10000")
+        if args.gt_map and not (4 <= args.gt_map <= 256 and args.gt_map % 2 == 0):
+            raise ValueError(f"--gt-map {args.gt_map}: expected 0 or an even width in 4..256")
         if not 1 <= args.jobs <= 64:
             raise ValueError(f"--jobs {args.jobs}: expected 1..64")
         if not os.access(args.parlight, os.X_OK):
@@ -193,6 +200,7 @@ def main(argv=None):
                 raise ValueError(f"--synthetic {args.synthetic}: no rooms of scenes {scenes}")
         config = {"tool": "tools/train/make_dataset.py", "version": VERSION, "seed": args.seed,
                   "crops_per_pano": args.crops_per_pano, "size_wh": [args.size[1], args.size[0]],
+                  "gt_map": args.gt_map,
                   "scenes": scenes, "ranges": RANGES, "limit": args.limit,
                   "panoramas": [r["file"] for r in rows],
                   "synthetic": ({"dir": os.path.abspath(args.synthetic), "crops_per_room": k_synth,
@@ -225,7 +233,8 @@ def main(argv=None):
                 [(r, k) for r in synth for k in range(k_synth)])
         done = 0
         with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-            futs = [pool.submit(make_one, args.parlight, r, k, args.seed, args.size, args.out)
+            futs = [pool.submit(make_one, args.parlight, r, k, args.seed, args.size, args.out,
+                                args.gt_map)
                     for r, k in jobs]
             for fut in futs:
                 fut.result()
