@@ -27,6 +27,7 @@ static void usage(FILE *f)
         f,
         "usage: parlight crop --hdr PANO --yaw D --pitch D --fov D --out CROP.png [--gt GT.json]\n"
         "       parlight crop --hdr PANO --batch N --out-dir DIR\n"
+        "       parlight crop --hdr PANO --list FILE [--size WxH] [--gt-map W]\n"
         "\n"
         "Renders a perspective LDR crop of an HDR equirectangular panorama (pinhole at its "
         "centre,\n"
@@ -38,7 +39,10 @@ static void usage(FILE *f)
         "pitch_deg,\n"
         "fov_deg added). Batch mode writes the paper's crops: N yaws 360/N apart at pitch 0, fov "
         "60\n"
-        "(N = 8: yaw 0, 45, ..., 315), as DIR/<name>_yawDDD.png and .json.\n"
+        "(N = 8: yaw 0, 45, ..., 315), as DIR/<name>_yawDDD.png and .json. List mode makes\n"
+        "many crops of one panorama, read and extracted once (what tools/train/make_dataset.py\n"
+        "uses): FILE has one crop a line, 7 tab-separated fields: OUT.png GT.json yaw pitch\n"
+        "fov exposure gamma (ranges as the flags; '#' lines and empty lines skipped).\n"
         "\n"
         "  --hdr FILE          the panorama (.exr/.hdr, width = 2 x height)\n"
         "  --yaw D             longitude of the view centre, degrees (0 = panorama centre, + = "
@@ -54,6 +58,7 @@ static void usage(FILE *f)
         "                      camera frame, times k, area-averaged to W x W/2 (even, 4..256):\n"
         "                      field radiance_map (docs/EXTRACTION.md, \"Crops\")\n"
         "  --batch N           batch mode: N crops (1..64)\n"
+        "  --list FILE         list mode: the crops listed in FILE (- for standard input)\n"
         "  --out-dir DIR       batch mode output folder (created if missing)\n"
         "  --format png|jpg    batch mode image format (default png)\n"
         "  --quality Q         JPEG quality 1..100 (default 90)\n"
@@ -169,6 +174,126 @@ static int parse_size(const char *s, int *w, int *h)
     return 0;
 }
 
+/* One crop of a --list file. */
+typedef struct list_item {
+    char out[1024], gt[1024];
+    double yaw, pitch, fov, exposure, gamma;
+} list_item;
+
+/* Field i (0-based) of a tab-separated line, NUL-terminated in place; NULL when missing. */
+static char *next_field(char **s)
+{
+    if (!*s) return NULL;
+    char *f = *s, *t = strchr(f, '\t');
+    if (t) {
+        *t = '\0';
+        *s = t + 1;
+    } else {
+        *s = NULL;
+    }
+    return f;
+}
+
+/* Reads a --list file (see usage) into *items (allocated), checking every field; on error says
+ * which line and field and returns -1. */
+static int read_list(const char *path, list_item **items, int *n)
+{
+    FILE *f = strcmp(path, "-") ? fopen(path, "r") : stdin;
+    if (!f) {
+        fprintf(stderr, "parlight crop: --list %s: cannot open\n", path);
+        return -1;
+    }
+    char line[4096];
+    int cap = 0, line_no = 0, rc = 0;
+    *items = NULL;
+    *n = 0;
+    while (fgets(line, sizeof line, f)) {
+        line_no++;
+        size_t len = strlen(line);
+        if (len == sizeof line - 1 && line[len - 1] != '\n') {
+            fprintf(stderr, "parlight crop: %s:%d: line longer than %zu bytes\n", path, line_no,
+                    sizeof line - 2);
+            rc = -1;
+            break;
+        }
+        while (len && (line[len - 1] == '\n' || line[len - 1] == '\r'))
+            line[--len] = '\0';
+        if (!len || line[0] == '#') continue;
+        if (*n == cap) {
+            int ncap = cap ? 2 * cap : 64;
+            if (ncap > 1000000) {
+                fprintf(stderr, "parlight crop: %s: more than 1000000 crops\n", path);
+                rc = -1;
+                break;
+            }
+            list_item *t = realloc(*items, (size_t)ncap * sizeof *t);
+            if (!t) {
+                fprintf(stderr, "parlight crop: %s: out of memory\n", path);
+                rc = -1;
+                break;
+            }
+            *items = t;
+            cap = ncap;
+        }
+        list_item *it = &(*items)[*n];
+        char *rest = line, *fld[7];
+        int k = 0;
+        for (; k < 7 && (fld[k] = next_field(&rest)) != NULL; k++) {
+        }
+        if (k < 7 || rest) {
+            fprintf(stderr,
+                    "parlight crop: %s:%d: expected 7 tab-separated fields (OUT GT yaw pitch fov "
+                    "exposure gamma)\n",
+                    path, line_no);
+            rc = -1;
+            break;
+        }
+        char where[64];
+        snprintf(where, sizeof where, "line %d", line_no);
+        if (!*fld[0] || !*fld[1] || strlen(fld[0]) >= sizeof it->out ||
+            strlen(fld[1]) >= sizeof it->gt) {
+            fprintf(stderr, "parlight crop: %s:%d: empty or too long output name\n", path,
+                    line_no);
+            rc = -1;
+            break;
+        }
+        if (!(has_ext(fld[0], ".png") || has_ext(fld[0], ".jpg") || has_ext(fld[0], ".jpeg"))) {
+            fprintf(stderr, "parlight crop: %s:%d: %s: expected a .png, .jpg or .jpeg name\n",
+                    path, line_no, fld[0]);
+            rc = -1;
+            break;
+        }
+        snprintf(it->out, sizeof it->out, "%s", fld[0]);
+        snprintf(it->gt, sizeof it->gt, "%s", fld[1]);
+        if (pl_app_double("crop", where, fld[2], -360, 360, &it->yaw) < 0 ||
+            pl_app_double("crop", where, fld[3], -90, 90, &it->pitch) < 0 ||
+            pl_app_double("crop", where, fld[4], 1, 170, &it->fov) < 0 ||
+            pl_app_double("crop", where, fld[5], -20, 20, &it->exposure) < 0 ||
+            pl_app_double("crop", where, fld[6], 0.2, 5, &it->gamma) < 0) {
+            fprintf(stderr, "parlight crop: %s:%d: bad number (fields 3-7: yaw pitch fov exposure "
+                            "gamma)\n", path, line_no);
+            rc = -1;
+            break;
+        }
+        (*n)++;
+    }
+    if (rc == 0 && ferror(f)) {
+        fprintf(stderr, "parlight crop: --list %s: read error\n", path);
+        rc = -1;
+    }
+    if (rc == 0 && *n == 0) {
+        fprintf(stderr, "parlight crop: --list %s: no crops listed\n", path);
+        rc = -1;
+    }
+    if (f != stdin) fclose(f);
+    if (rc < 0) {
+        free(*items);
+        *items = NULL;
+        *n = 0;
+    }
+    return rc;
+}
+
 int cmd_crop(int argc, char **argv)
 {
     static const struct option opts[] = {{"hdr", required_argument, 0, 'i'},
@@ -182,6 +307,7 @@ int cmd_crop(int argc, char **argv)
                                          {"gt", required_argument, 0, 't'},
                                          {"gt-map", required_argument, 0, 'm'},
                                          {"batch", required_argument, 0, 'b'},
+                                         {"list", required_argument, 0, 'l'},
                                          {"out-dir", required_argument, 0, 'd'},
                                          {"format", required_argument, 0, 'F'},
                                          {"quality", required_argument, 0, 'q'},
@@ -189,7 +315,7 @@ int cmd_crop(int argc, char **argv)
                                          {"force", no_argument, 0, 'f'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
-    const char *hdr = NULL, *out = NULL, *gt = NULL, *dir = NULL, *fmt = "png";
+    const char *hdr = NULL, *out = NULL, *gt = NULL, *dir = NULL, *fmt = "png", *list = NULL;
     int batch = 0, quality = 90, force = 0, have_yaw = 0, map_width = 0;
     pl_crop_params cp;
     pl_crop_default_params(&cp);
@@ -238,6 +364,9 @@ int cmd_crop(int argc, char **argv)
         case 'b':
             if (cli_int("crop", "--batch", optarg, 1, 64, &batch) < 0) return 2;
             break;
+        case 'l':
+            list = optarg;
+            break;
         case 'd':
             dir = optarg;
             break;
@@ -273,7 +402,26 @@ int cmd_crop(int argc, char **argv)
         fprintf(stderr, "parlight crop: --hdr PANO is required\n");
         return 2;
     }
-    if (batch) {
+    list_item *items = NULL;
+    int n_items = 0;
+    if (list) {
+        if (batch || dir || out || gt || have_yaw) {
+            fprintf(stderr, "parlight crop: --list takes no --batch, --out-dir, --out, --gt or "
+                            "--yaw (the list gives them)\n");
+            return 2;
+        }
+        if (read_list(list, &items, &n_items) < 0) return 2;
+        for (int i = 0; i < n_items && !force; i++) {
+            const char *chk[2] = {items[i].out, items[i].gt};
+            for (int j = 0; j < 2; j++)
+                if (access(chk[j], F_OK) == 0) {
+                    fprintf(stderr, "parlight crop: %s already exists (use --force to overwrite)\n",
+                            chk[j]);
+                    free(items);
+                    return 1;
+                }
+        }
+    } else if (batch) {
         if (!dir || out || gt || have_yaw) {
             fprintf(stderr,
                     "parlight crop: --batch needs --out-dir and takes no --out, --gt or --yaw\n");
@@ -283,11 +431,11 @@ int cmd_crop(int argc, char **argv)
         fprintf(stderr, "parlight crop: --out FILE is required (or --batch N --out-dir DIR)\n");
         return 2;
     }
-    if (!batch && !(has_ext(out, ".png") || has_ext(out, ".jpg") || has_ext(out, ".jpeg"))) {
+    if (!batch && !list && !(has_ext(out, ".png") || has_ext(out, ".jpg") || has_ext(out, ".jpeg"))) {
         fprintf(stderr, "parlight crop: --out %s: expected a .png, .jpg or .jpeg name\n", out);
         return 2;
     }
-    if (!batch && !force) {
+    if (!batch && !list && !force) {
         const char *chk[2] = {out, gt};
         for (int i = 0; i < 2; i++)
             if (chk[i] && access(chk[i], F_OK) == 0) {
@@ -327,6 +475,7 @@ int cmd_crop(int argc, char **argv)
     if (pl_hdr_read_panorama(hdr, &pano) < 0) {
         fprintf(stderr, "parlight crop: %s\n", pl_last_error());
         free(names);
+        free(items);
         return 1;
     }
     pl_lighting L;
@@ -336,9 +485,20 @@ int cmd_crop(int argc, char **argv)
         fprintf(stderr, "parlight crop: %s: %s\n", hdr, pl_last_error());
         pl_image_f32_free(&pano);
         free(names);
+        free(items);
         return 1;
     }
-    if (!batch) {
+    if (list) {
+        for (int i = 0; i < n_items && rc == 0; i++) {
+            cp.yaw_deg = items[i].yaw;
+            cp.pitch_deg = items[i].pitch;
+            cp.fov_deg = items[i].fov;
+            cp.exposure_ev = items[i].exposure;
+            cp.gamma = items[i].gamma;
+            rc = do_crop(hdr, &pano, &L, &ep, &info, &cp, items[i].out, items[i].gt, quality,
+                         map_width);
+        }
+    } else if (!batch) {
         rc = do_crop(hdr, &pano, &L, &ep, &info, &cp, out, gt, quality, map_width);
     } else {
         for (int i = 0; i < batch && rc == 0; i++) {
@@ -351,6 +511,7 @@ int cmd_crop(int argc, char **argv)
     }
     pl_image_f32_free(&pano);
     free(names);
+    free(items);
     if (rc < 0) {
         fprintf(stderr, "parlight crop: %s\n", pl_last_error());
         return 1;

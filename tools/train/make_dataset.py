@@ -18,10 +18,21 @@ index, so adding panoramas or changing K never changes the crops already made):
     exposure offset uniform [-1, +1] stops around parlight crop's automatic exposure
     gamma   uniform [1.8, 2.6] (camera response v = clip(kL)^(1/gamma), 8 bits)
 
-Each crop is `parlight crop --hdr PANO --yaw --pitch --fov --size --exposure --gamma --out
-X.png --gt X.json`: the C implementation renders the crop and writes the ground truth (lights,
-ambient, exposure scale, in the crop's camera frame). This tool adds a "dataset" object to the
+Each crop is what `parlight crop --hdr PANO --yaw --pitch --fov --size --exposure --gamma --out
+X.png --gt X.json [--gt-map W]` writes: the C implementation renders the crop and writes the
+ground truth (lights, ambient, exposure scale, and with --gt-map the panorama itself as a W x W/2
+map, all in the crop's camera frame). This tool adds a "dataset" object to the
 JSON (panorama, scene, licence, seed, index) and never computes any lighting itself.
+
+--panos DIR takes every .exr/.hdr under DIR instead (a user's own panoramas, or a research set
+such as the Laval Indoor HDR Dataset's folder of .exr files; any resolution, 2:1), named
+"panos/<relative path>" (train.py treats them like train/ panoramas, held-out choice included),
+with --scene and --license (or a MANIFEST.tsv in DIR) for each; files that are not 2:1 panoramas
+are reported and left out. The shared eval/ panoramas are refused however they are reached.
+
+Each panorama is one `parlight crop --list` process (the panorama read and its lights extracted
+once, then its missing crops), --jobs of them at a time; the crops are byte-identical to one
+`parlight crop` per crop.
 
 Layout under --out:
     dataset.json        the configuration; a rerun with another seed, size, scenes or ranges is
@@ -39,6 +50,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 import numpy as np
 
@@ -94,41 +106,109 @@ def read_manifest(hdri, scenes, prefix="train/"):
 
 
 def crop_base(name, k):
-    """The file name (no extension) of crop k of panorama `name` (synth/ rooms get "synth_")."""
-    stem = os.path.splitext(os.path.basename(name))[0]
-    return f"{'synth_' if name.startswith('synth/') else ''}{stem}_k{k:03d}"
+    """The file name (no extension) of crop k of panorama `name`: synth/ rooms get "synth_", a
+    --panos folder's files "panos_" and their relative path with "/" as "__" (two files of the
+    same name in different subfolders stay apart)."""
+    if name.startswith("panos/"):
+        stem = "panos_" + os.path.splitext(name[len("panos/"):])[0].replace("/", "__")
+    else:
+        stem = (("synth_" if name.startswith("synth/") else "")
+                + os.path.splitext(os.path.basename(name))[0])
+    return f"{stem}_k{k:03d}"
 
 
-def make_one(parlight, row, k, seed, size, out, gt_map=0):
-    """One crop (resumable: skipped when its .json exists). Returns (png, json) names."""
+def make_pano(parlight, row, ks, seed, size, out, gt_map=0):
+    """The crops ks of one panorama that are not made yet, by one `parlight crop --list` (the
+    panorama is read and its lights extracted once). Resumable: a crop is complete when its .json
+    is in crops/ (renamed there last); an interrupted panorama's temporary files are remade.
+    Returns the number of crops made."""
     name = row["file"]
-    base = crop_base(name, k)
-    png, js = os.path.join(out, "crops", base + ".png"), os.path.join(out, "crops", base + ".json")
-    if os.path.exists(js) and os.path.exists(png):
-        return base
-    p = crop_params(seed, name, k)
-    tmp_png = os.path.join(out, "tmp", base + ".png")
-    tmp_js = os.path.join(out, "tmp", base + ".json")
-    cmd = [parlight, "crop", "--hdr", os.path.join(row["root"], name),
-           "--yaw", repr(p["yaw"]), "--pitch", repr(p["pitch"]), "--fov", repr(p["fov"]),
-           "--size", f"{size[1]}x{size[0]}", "--exposure", repr(p["exposure"]),
-           "--gamma", repr(p["gamma"]), "--out", tmp_png, "--gt", tmp_js, "--force"]
+    todo = []
+    for k in ks:
+        base = crop_base(name, k)
+        png = os.path.join(out, "crops", base + ".png")
+        js = os.path.join(out, "crops", base + ".json")
+        if not (os.path.exists(js) and os.path.exists(png)):
+            todo.append((k, base, png, js))
+    if not todo:
+        return 0
+    tmp = os.path.join(out, "tmp")
+    lst = os.path.join(tmp, crop_base(name, 0)[:-5] + ".list")
+    with open(lst, "w", encoding="utf-8") as f:
+        for k, base, _, _ in todo:
+            p = crop_params(seed, name, k)
+            f.write("\t".join([os.path.join(tmp, base + ".png"), os.path.join(tmp, base + ".json")]
+                              + [repr(p[key]) for key in ("yaw", "pitch", "fov", "exposure",
+                                                          "gamma")]) + "\n")
+    cmd = [parlight, "crop", "--hdr", row.get("src") or os.path.join(row["root"], name),
+           "--list", lst,
+           "--size", f"{size[1]}x{size[0]}", "--force"]
     if gt_map:
         cmd += ["--gt-map", str(gt_map)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)}: exit {r.returncode}: {r.stderr.strip()}")
-    with open(tmp_js, encoding="utf-8") as f:
-        gt = json.load(f)
-    gt["image"] = base + ".png"
-    gt["dataset"] = {"panorama": name, "scene": row["scene"], "license": row["license"],
-                     "seed": seed, "crop_index": k, "params": p, "tool": "tools/train/make_dataset.py",
-                     "version": VERSION}
-    with open(tmp_js, "w", encoding="utf-8") as f:
-        json.dump(gt, f)
-    os.replace(tmp_png, png)
-    os.replace(tmp_js, js)
-    return base
+        raise RuntimeError(f"{name}: parlight crop exit {r.returncode}: {r.stderr.strip()}")
+    for k, base, png, js in todo:
+        tmp_png, tmp_js = os.path.join(tmp, base + ".png"), os.path.join(tmp, base + ".json")
+        with open(tmp_js, encoding="utf-8") as f:
+            gt = json.load(f)
+        gt["image"] = base + ".png"
+        gt["dataset"] = {"panorama": name, "scene": row["scene"], "license": row["license"],
+                         "seed": seed, "crop_index": k, "params": crop_params(seed, name, k),
+                         "tool": "tools/train/make_dataset.py", "version": VERSION}
+        with open(tmp_js, "w", encoding="utf-8") as f:
+            json.dump(gt, f)
+        os.replace(tmp_png, png)
+        os.replace(tmp_js, js)
+    os.remove(lst)
+    return len(todo)
+
+
+def read_folder(folder, scene, license_, shared_hdri):
+    """Rows for every .exr/.hdr under `folder` (recursively, sorted), named "panos/<relative
+    path>": a user's own panoramas or a research set (e.g. the Laval Indoor HDR Dataset's folder
+    of .exr files). A MANIFEST.tsv in `folder` with columns file (relative path), scene and
+    license overrides --scene and --license per file. The shared evaluation panoramas are refused
+    wherever they are reached from."""
+    folder = os.path.abspath(folder)
+    if not os.path.isdir(folder):
+        raise ValueError(f"--panos {folder}: not a folder")
+    evald = os.path.realpath(os.path.join(shared_hdri, "eval"))
+    if os.path.realpath(folder) == evald or os.path.realpath(folder).startswith(evald + os.sep):
+        raise ValueError(f"--panos {folder}: the evaluation panoramas are never trained on")
+    meta = {}
+    mpath = os.path.join(folder, "MANIFEST.tsv")
+    if os.path.isfile(mpath):
+        with open(mpath, encoding="utf-8") as f:
+            lines = [ln.rstrip("\n").split("\t") for ln in f if ln.strip()]
+        head = lines[0] if lines else []
+        if "file" not in head:
+            raise ValueError(f"{mpath}: no column 'file' in the header")
+        for cols in lines[1:]:
+            meta[cols[head.index("file")]] = dict(zip(head, cols))
+    rows = []
+    for dirpath, dirnames, files in os.walk(folder, followlinks=True):
+        dirnames.sort()
+        for fn in sorted(files):
+            if not fn.lower().endswith((".exr", ".hdr")):
+                continue
+            full = os.path.join(dirpath, fn)
+            rel = os.path.relpath(full, folder)
+            if "\t" in rel or "\n" in rel:
+                raise ValueError(f"{full}: a tab or newline in the name")
+            real = os.path.realpath(full)
+            if real.startswith(evald + os.sep):
+                raise ValueError(f"{full}: is an evaluation panorama ({real}); never trained on")
+            m = meta.get(rel, {})
+            sc = m.get("scene") or scene
+            if sc not in ("indoor", "indoor-semi", "outdoor"):
+                raise ValueError(f"{rel}: scene {sc!r}: expected indoor, indoor-semi or outdoor")
+            rows.append({"file": "panos/" + rel, "scene": sc,
+                         "license": m.get("license") or license_, "root": folder,
+                         "src": full})
+    if not rows:
+        raise ValueError(f"--panos {folder}: no .exr or .hdr files")
+    return rows
 
 
 def parse_size(text):
@@ -156,6 +236,14 @@ def main(argv=None):
                     "ground truth (parlight crop --gt-map; train.py --w-map); 0: none")
     ap.add_argument("--scenes", default="indoor,indoor-semi,outdoor",
                     help="MANIFEST scene classes to use (comma-separated)")
+    ap.add_argument("--panos", metavar="DIR", help="crop every .exr/.hdr under DIR (recursively; "
+                    "any size, 2:1) instead of the shared train/ panoramas: a user's own capture "
+                    "set or a research set such as the Laval Indoor HDR Dataset's folder of .exr")
+    ap.add_argument("--scene", default="indoor", choices=("indoor", "indoor-semi", "outdoor"),
+                    help="--panos: the scene class of its panoramas (a MANIFEST.tsv in DIR with "
+                    "columns file, scene, license overrides it per file)")
+    ap.add_argument("--license", default="unknown (the user's own panoramas)",
+                    help="--panos: the licence recorded with each crop (MANIFEST.tsv overrides)")
     ap.add_argument("--limit", type=int, default=0, help="only the first N panoramas (tests)")
     ap.add_argument("--synthetic", metavar="DIR", help="also crop the rooms of synth_rooms.py in DIR")
     ap.add_argument("--synthetic-crops", type=int, default=0, metavar="K",
@@ -176,11 +264,16 @@ def main(argv=None):
         if not os.access(args.parlight, os.X_OK):
             raise ValueError(f"{args.parlight}: no parlight binary (build it, or --parlight)")
         scenes = [s for s in args.scenes.split(",") if s]
-        rows = read_manifest(args.hdri, scenes)
+        if args.panos:
+            rows = [r for r in read_folder(args.panos, args.scene, args.license, args.hdri)
+                    if r["scene"] in scenes]
+        else:
+            rows = read_manifest(args.hdri, scenes)
         if args.limit > 0:
             rows = rows[:args.limit]
         if not rows:
-            raise ValueError(f"no train panoramas of scenes {scenes} in {args.hdri}/MANIFEST.tsv")
+            raise ValueError(f"no panoramas of scenes {scenes} in "
+                             + (args.panos if args.panos else f"{args.hdri}/MANIFEST.tsv"))
         k_synth = args.synthetic_crops or args.crops_per_pano
         if not 1 <= k_synth <= 10000:
             raise ValueError(f"--synthetic-crops {args.synthetic_crops}: expected 1..10000")
@@ -201,6 +294,7 @@ def main(argv=None):
         config = {"tool": "tools/train/make_dataset.py", "version": VERSION, "seed": args.seed,
                   "crops_per_pano": args.crops_per_pano, "size_wh": [args.size[1], args.size[0]],
                   "gt_map": args.gt_map,
+                  "panos": os.path.abspath(args.panos) if args.panos else None,
                   "scenes": scenes, "ranges": RANGES, "limit": args.limit,
                   "panoramas": [r["file"] for r in rows],
                   "synthetic": ({"dir": os.path.abspath(args.synthetic), "crops_per_room": k_synth,
@@ -212,6 +306,8 @@ def main(argv=None):
         if os.path.exists(cfg_path):
             with open(cfg_path, encoding="utf-8") as f:
                 old = json.load(f)
+            old.setdefault("gt_map", 0)      # made before these keys existed
+            old.setdefault("panos", None)
             # more crops, panoramas or synthetic rooms only add crops; anything else is refused
             extends = ("crops_per_pano", "panoramas", "synthetic")
             same = {k: v for k, v in old.items() if k not in extends}
@@ -229,18 +325,29 @@ def main(argv=None):
             json.dump(config, f, indent=1)
         os.replace(cfg_path + ".tmp", cfg_path)
 
-        jobs = ([(r, k) for r in rows for k in range(args.crops_per_pano)] +
-                [(r, k) for r in synth for k in range(k_synth)])
-        done = 0
+        tasks = ([(r, range(args.crops_per_pano)) for r in rows] +
+                 [(r, range(k_synth)) for r in synth])
+        made, skipped, t0 = 0, [], time.time()
+        # one parlight process per panorama, --jobs of them at a time
         with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-            futs = [pool.submit(make_one, args.parlight, r, k, args.seed, args.size, args.out,
-                                args.gt_map)
-                    for r, k in jobs]
-            for fut in futs:
-                fut.result()
-                done += 1
-                if not args.quiet and (done % 100 == 0 or done == len(jobs)):
-                    print(f"{done}/{len(jobs)} crops", flush=True)
+            futs = [pool.submit(make_pano, args.parlight, r, ks, args.seed, args.size, args.out,
+                                args.gt_map) for r, ks in tasks]
+            for i, fut in enumerate(futs):
+                try:
+                    made += fut.result()
+                except RuntimeError as e:
+                    if not args.panos:
+                        raise
+                    # a user's folder may hold files that are not 2:1 panoramas: say which
+                    # and why, leave them out of the index, go on with the others
+                    print(f"make_dataset: skipped {e}", file=sys.stderr)
+                    skipped.append(tasks[i][0]["file"])
+                if not args.quiet and ((i + 1) % 10 == 0 or i + 1 == len(futs)):
+                    print(f"{i + 1}/{len(futs)} panoramas, {made} crops made "
+                          f"({time.time() - t0:.0f} s)", flush=True)
+        jobs = [(r, k) for r, ks in tasks if r["file"] not in skipped for k in ks]
+        if not jobs:
+            raise ValueError("no panorama could be cropped")
         with open(os.path.join(args.out, "index.tsv.tmp"), "w", encoding="utf-8") as f:
             f.write("png\tjson\tpanorama\tscene\n")
             for r, k in jobs:
@@ -250,8 +357,9 @@ def main(argv=None):
     except (OSError, ValueError, RuntimeError) as e:
         print(f"make_dataset: {e}", file=sys.stderr)
         return 1
-    print(f"{args.out}: {len(jobs)} crops of {len(rows)} panoramas"
-          + (f" and {len(synth)} synthetic rooms" if synth else ""))
+    print(f"{args.out}: {len(jobs)} crops of {len(rows) - len(skipped)} panoramas"
+          + (f" and {len(synth)} synthetic rooms" if synth else "")
+          + (f"; {len(skipped)} files skipped (see above)" if skipped else ""))
     return 0
 
 
