@@ -3,7 +3,8 @@
 # the shared MobileNetV2 as teacher; 1 epoch (loss finite, teacher maps cached), a resume to 2
 # epochs that ends with the same weights as 2 epochs in one go (and reuses the cache), refusals
 # with a reason (another --seed or --input into the same --out, a file that is not a checkpoint,
-# fewer crops than a batch), and train.py --init taking the encoder from it.
+# fewer crops than a batch; --device cuda where there is none), --stream and --device cpu giving the
+# same weights as the crops held in memory, and train.py --init taking the encoder from it.
 # Needs ../shared (the panoramas and data/pretrained/mobilenet_v2_1.0_224_quant.tflite).
 # Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
 set -u
@@ -53,6 +54,17 @@ worst = max(float((a[m][k].float() - b[m][k].float()).abs().max())
 print(f"resumed vs uninterrupted after 2 epochs: max |weight difference| {worst:.3g}")
 assert worst == 0, worst
 EOF
+# --stream (crops decoded at each use) and --device cpu: the same weights as in memory
+"${D[@]}" --epochs 2 --stream --device cpu --out "$TMP/s/enc.pt" >"$TMP/s.log" 2>&1 ||
+    fail "--stream: $(cat "$TMP/s.log")"
+"$PY" - "$TMP/s/enc.pt" "$TMP/b/enc.pt" <<'EOF' || fail "--stream weights differ"
+import sys, torch
+a, b = (torch.load(p, map_location="cpu") for p in sys.argv[1:3])
+worst = max(float((a[m][k].float() - b[m][k].float()).abs().max())
+            for m in ("model", "proj") for k in a[m])
+assert worst == 0, worst
+print("--stream --device cpu: the same weights as in memory")
+EOF
 
 refused() {   # refused WHAT REASON ARGS...: distill.py must exit 1 naming REASON, no traceback
     local what=$1 reason=$2
@@ -89,4 +101,10 @@ d = float((enc["model"][k] - run["model"][k]).abs().max())
 assert 0 < d <= 2e-3, d
 print(f"train.py --init: step 1 starts from the distilled encoder (first layer moved {d:.2g})")
 EOF
+if ! "$PY" -c 'import torch, sys; sys.exit(torch.cuda.is_available())'; then
+    echo "(CUDA available: the --device cuda refusal is not checked)"
+else
+    refused "--device cuda without CUDA" "sees no CUDA device" "${D[@]}" --epochs 1 --device cuda \
+        --out "$TMP/c/cuda.pt"
+fi
 echo "distill.py: ok"

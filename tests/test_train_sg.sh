@@ -111,10 +111,21 @@ size, rgb = torch.rand(4, 3) * 0.5 + 0.05, torch.rand(4, 3, 3) * 30
 amb = torch.rand(4, 3)
 m = sg.render(d, size, rgb, udirs)
 cfg = {"sphere_metric": "relative", "radiance": "log"}
-L = lambda k, s=1.0: float(train.sphere_l2(k * s * m, k * s * amb, s * m, s * amb, op, cfg))
+L = lambda k, s=1.0: float(train.sphere_l2(k * s * m, k * s * amb, s * m, {"ambient": s * amb},
+                                           (udirs, op, None, None), cfg))
 checks = {"truth": L(1) < 1e-12, "quadratic": abs(L(3) - 4 * L(2)) < 1e-4 * L(3),
           "per-crop scale": abs(L(2, 10.0) - L(2)) < 1e-4 * L(2), "bright > dark": L(2) > L(0.5)}
 print("  relative sphere loss:", ", ".join(f"{k} {'ok' if v else 'FAILED'}" for k, v in checks.items()))
-sys.exit(0 if all(checks.values()) else 1)
+# --sphere-truth map: the truth sphere is lit by the crop's map (here the lights' own map plus
+# the ambient): 0 for the same lighting, > 0 for another, and it reads the map, not the lights
+cfg = {"sphere_metric": "log", "radiance": "log", "sphere_truth": "map"}
+gt = {"map": m + amb[:, None, None, :], "ambient": torch.zeros(4, 3)}
+M = lambda k: float(train.sphere_l2(k * m, k * amb, None, gt, (udirs, op, op, None), cfg))
+mchecks = {"truth": M(1) < 1e-10, "other": M(2) > 1e-3,
+           "lights ignored": float(train.sphere_l2(m, amb, 5 * m, gt, (udirs, op, op, None),
+                                                   cfg)) < 1e-10}
+print("  sphere truth from the map:", ", ".join(f"{k} {'ok' if v else 'FAILED'}"
+                                               for k, v in mchecks.items()))
+sys.exit(0 if all(checks.values()) and all(mchecks.values()) else 1)
 EOF
 echo "ok: $n maps and spheres match parlight render; mirrored lights are rejected"

@@ -7,7 +7,8 @@
 # train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
 # checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
 # step 1 and step 2, the export (.plm), --ema (resumes, never feeds back, ends step 1 on
-# the average), and the exported model in C (parlight info, estimate)
+# the average), --w-map and --sphere-truth map (resume, the auxiliary head is not exported),
+# and the exported model in C (parlight info, estimate)
 # against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3);
 # tools/train/int8_sim.py on its int8 quantisations against parlight qcheck.
 # Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
@@ -83,14 +84,14 @@ import json, sys
 sys.path[:0] = ["tools/train", "tools"]
 import train
 imgs, gt, val, held, _ = train.load_dataset(sys.argv[1], (96, 128), 0)
-assert imgs.shape[0] == 8 and not val.any() and held == [], (imgs.shape, held)
+assert len(imgs) == 8 and not val.any() and held == [], (len(imgs), held)
 d = json.load(open(sys.argv[1] + "/crops/synth_room_0000_k001.json"))
 assert d["dataset"]["panorama"] == "synth/room_0000.hdr" and d["lights"], d["dataset"]
 try:
     train.load_dataset(sys.argv[1], (96, 128), 1)   # 1 real panorama: none left to train on
     raise SystemExit("--val-panos 1 accepted with one real panorama")
 except ValueError as e:
-    assert "only 1 train/ panoramas" in str(e), e
+    assert "only 1 real panoramas" in str(e), e
 print("synthetic: 2 crops join training; the one real panorama is all --val-panos can take")
 EOF
 
@@ -234,6 +235,34 @@ assert torch.allclose(ema.weight, want, atol=1e-6), (ema.weight, want)
 assert int(ema.num_batches_tracked) == 30 and not torch.equal(ema.running_mean, net.running_mean)
 print("--ema: step1_raw.pt is the plain run's step 1, step1.pt the average; formula checked")
 EOF
+
+# --- dense supervision: --w-map (an auxiliary head regressing the crop's radiance map from the
+# 512-d vector) and --sphere-truth map (the diffuse-sphere truth lit by the real panorama). They
+# resume bit-identically, the head trains and its loss is logged, the export leaves it out (the
+# same tensors as a plain export, and C agrees with the checkpoint), and a dataset without
+# radiance maps is refused ---
+DENSE=(--w-map 1 --sphere-truth map --w-d1 5 --step2-loss render)
+resume_pair ckm dense "${DENSE[@]}"
+"$PY" - "$TMP/ckm/last.pt" "$TMP/ckm2/last.pt" <<'EOF' || fail "dense resume"
+import sys, torch
+a, b = (torch.load(p, map_location="cpu")["model"] for p in sys.argv[1:3])
+assert "aux_map.lin.weight" in a, "no auxiliary head in the checkpoint"
+worst = max(float((a[k].float() - b[k].float()).abs().max()) for k in a)
+assert worst <= 1e-6, f"resumed vs uninterrupted: {worst}"
+print(f"--w-map --sphere-truth map: resumed vs uninterrupted {worst:.3g}")
+EOF
+grep -q " aux " "$TMP/log-ckm" || fail "--w-map: no auxiliary loss in $(cat "$TMP/log-ckm")"
+"${TR[@]}" "${DENSE[@]}" --ckpt-dir "$TMP/ckm" --log "$TMP/log-ckm" --export "$TMP/mm.plm" \
+    >/dev/null || fail "dense: finish and export"
+[ "$(stat -c %s "$TMP/mm.plm")" = "$(stat -c %s "$TMP/m.plm")" ] ||
+    fail "the export with --w-map differs in size from a plain one (auxiliary head exported?)"
+"$PY" tools/train/check_export.py --ckpt "$TMP/ckm/final.pt" --plm "$TMP/mm.plm" --frame "$f" \
+    --parlight "$BUILD/parlight" >/dev/null || fail "dense: C and PyTorch disagree"
+"${DS[@]}" --gt-map 0 --out "$TMP/data-nomap" >/dev/null || fail "make_dataset.py --gt-map 0"
+"${TR[@]}" --data "$TMP/data-nomap" --w-map 1 --ckpt-dir "$TMP/ckm3" --log "$TMP/logm3" \
+    >"$TMP/m.log" 2>&1 && fail "--w-map accepted a dataset without radiance maps"
+grep -q "no radiance_map" "$TMP/m.log" || fail "no reason: $(cat "$TMP/m.log")"
+echo "dense supervision: resumes, trains the head, exports without it"
 
 # --- tools/train/int8_sim.py: its simulation of the int8 executor tracks what qcheck measures
 # (z's SQNR within 3 dB), with and without kept-float layers ---

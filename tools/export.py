@@ -284,7 +284,7 @@ def check_fold(model, tensors, seed=0):
         ref = model.double()(x)
         got = folded_forward(t, x, model.n_lights)
     model.float()
-    return {k: float((got[k] - ref[k]).norm() / ref[k].norm().clamp_min(1e-30)) for k in ref}
+    return {k: float((got[k] - ref[k]).norm() / ref[k].norm().clamp_min(1e-30)) for k in got}
 
 
 # ---- metadata and the command line ----------------------------------------------------------

@@ -98,6 +98,7 @@ class ParLightNet(nn.Module):
         dirs = F.normalize(self.head_dir(h).view(-1, n, 3), dim=-1)
         return {
             "z": z,
+            "h": h,   # the 512-d vector the heads read (train.py's auxiliary map head reads it too)
             "dir": dirs,
             "distance": self.head_dist(zd, dirs),
             "size": F.softplus(self.head_size(h)),

@@ -40,7 +40,9 @@ def main(argv=None):
         ck = torch.load(args.ckpt, map_location="cpu")
         cfg = ck["config"]
         model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
-        model.load_state_dict(ck["model"])
+        # train.py --w-map's auxiliary head is training only: never exported
+        model.load_state_dict({k: v for k, v in ck["model"].items()
+                               if not k.startswith("aux_map.")})
         model = model.double().eval()
         h, w = cfg["input"]
         frame = golden.read_frame(args.frame, h, w)

@@ -18,6 +18,8 @@ by rerunning, with a larger --epochs to continue; another seed, input, teacher, 
 or dataset into the same --out is refused); the checkpoint's "model" is a whole ParLightNet
 state_dict (heads at their initialisation) that train.py --init reads the encoder from. On the
 CPU a run is repeatable for a given --threads; the counts used are recorded in the checkpoint.
+--device cuda and --stream as in train.py (the student trains on the device; the teacher maps are
+computed once on the CPU and cached; --device cpu is bit-identical to runs before the option).
 """
 
 import argparse
@@ -86,6 +88,9 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--max-steps", type=int, default=0)
     ap.add_argument("--limit", type=int, default=0)
+    ap.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
+    ap.add_argument("--stream", action="store_true", help="decode the crops from their files at "
+                    "each use instead of holding them all in memory (same results)")
     args = ap.parse_args(argv)
     torch.set_num_threads(max(1, args.threads))
     torch.set_flush_denormal(True)
@@ -94,8 +99,9 @@ def main(argv=None):
         if args.epochs < 1 or args.batch < 1:
             raise ValueError("--epochs and --batch must be >= 1")
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        dev = train.parse_device(args.device)
         imgs, _gt, val, held, digest = train.load_dataset(args.data, args.input, args.val_panos,
-                                                          args.limit)
+                                                          args.limit, stream=args.stream)
         with open(os.path.join(args.data, "index.tsv"), encoding="utf-8") as f:
             pngs = [ln.split("\t")[0] for ln in f][1:][:len(imgs)]
         tr = torch.nonzero(~val).flatten()
@@ -108,6 +114,7 @@ def main(argv=None):
         cfg = {"input": list(args.input), "teacher": args.teacher, "teacher_sha256": tsha,
                "seed": args.seed, "epochs": args.epochs, "bf16": args.bf16, "batch": args.batch,
                "lr": args.lr, "threads": [max(1, args.threads)],   # the weights depend on it
+               "devices": [args.device],
                "data_index_sha256": digest, "held_out": held}
         ck = None
         if os.path.exists(args.out):   # checked before the teacher maps, which take minutes
@@ -121,6 +128,7 @@ def main(argv=None):
                 raise ValueError(f"{args.out}: made with another configuration ({', '.join(diff)} "
                                  f"differ); use another --out")
             cfg["threads"] = train.threads_used(old.get("threads"), cfg["threads"])
+            cfg["devices"] = train.threads_used(old.get("devices", ["cpu"]), cfg["devices"])
         cache = (os.path.splitext(args.out)[0]
                  + f"-teacher-{digest[:12]}-{tsha[:8]}-{grid[0]}x{grid[1]}.pt")
         if os.path.exists(cache):
@@ -133,11 +141,11 @@ def main(argv=None):
             train.log_line(log, f"teacher maps of {len(pngs)} crops x2 in {time.time() - t0:.0f} s")
         mu = tmaps[tr].mean(dim=(0, 1, 3, 4), keepdim=True)[0]
         sd = tmaps[tr].std(dim=(0, 1, 3, 4), keepdim=True)[0].clamp_min(1e-3)
-        target = (tmaps - mu) / sd
+        target = ((tmaps - mu) / sd).to(dev)
 
         torch.manual_seed(args.seed)
-        model = ParLightNet(3, args.input)
-        proj = torch.nn.Conv2d(1024, tmaps.shape[2], 1)
+        model = ParLightNet(3, args.input).to(dev)
+        proj = torch.nn.Conv2d(1024, tmaps.shape[2], 1).to(dev)
         params = list(model.features.parameters()) + list(proj.parameters())
         opt = torch.optim.Adam(params, lr=args.lr)
         state = {"epoch": 0, "steps": 0}
@@ -157,8 +165,8 @@ def main(argv=None):
             t0, tot, n = time.time(), 0.0, 0
             for b in range(0, len(perm) - bs + 1, bs):
                 j, fl = perm[b:b + bs], flips[b:b + bs]
-                u8 = torch.where(fl.bool().view(-1, 1, 1, 1), imgs[j].flip(2), imgs[j])
-                with torch.autocast("cpu", dtype=torch.bfloat16, enabled=args.bf16):
+                u8 = torch.where(fl.bool().view(-1, 1, 1, 1), imgs[j].flip(2), imgs[j]).to(dev)
+                with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=args.bf16):
                     f = F.relu(model.features(train.to_input(u8)))
                     y = proj(f)
                 loss = F.mse_loss(y.float(), target[j, fl])
@@ -174,7 +182,8 @@ def main(argv=None):
             with torch.no_grad():
                 vl = float("nan")
                 if len(va):
-                    ys = [proj(F.relu(model.features(train.to_input(imgs[va[i:i + 32]]))))
+                    ys = [proj(F.relu(model.features(
+                        train.to_input(imgs[va[i:i + 32]].to(dev)))))
                           for i in range(0, len(va), 32)]
                     vl = float(F.mse_loss(torch.cat(ys), target[va, 0]))
             state["epoch"] = ep + 1

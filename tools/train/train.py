@@ -8,6 +8,7 @@
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
                          [--sphere-metric log|relative] [--z-dropout 0] [--erase 0] [--ema 0]
+                         [--w-map 0] [--sphere-truth lights|map] [--device cpu|cuda] [--stream]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -55,6 +56,14 @@ network's, step 1 ends on the average (step1.pt, then step 2 and the export), an
 weights of the run itself are kept in step1_raw.pt (`--step2-from` it for the same run without
 the average). The average never feeds back into training: the run's own weights are the same
 with or without it.
+Denser supervision (not in the paper; off by default; needs a dataset made with make_dataset.py
+--gt-map, whose ground truth carries each crop's panorama rotated into its camera frame on its
+scale, W x W/2): --w-map W adds W times an auxiliary loss in step 1: a linear head from the 512-d
+vector h (AuxMap, training only, never exported: the .plm and the C graph do not change) regresses
+the map after log1p, L2 weighted by each row's solid angle. --sphere-truth map lights the
+diffuse-sphere terms' truth (--w-d1, --step2-loss render) by that real panorama instead of the
+extracted lights + ambient: what `parlight eval` scores against, light the extraction left out
+included.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
@@ -67,12 +76,22 @@ configuration keeps the thread counts the run used (the export's provenance name
 CPU a run is bit-for-bit repeatable with the same data, start, seed and --threads, and another
 thread count gives another network (reduction order), as another distilled encoder does.
 
+Data and devices: the crops' pixels are decoded once at load and held in memory (M x H x W x 3
+bytes), or with --stream decoded from their files at each use by a pool of threads (memory
+independent of the dataset's size); both give the same bytes, hence the same network. --device
+cuda (or cuda:N) trains on a GPU: the network, ground truth, maps and operators move there, images
+are decoded on the CPU and copied per batch, bf16 autocast runs on that device; batch order,
+flips and seeds are drawn on the CPU as before. --device cpu (the default) is bit-identical to the
+runs before the option existed. A run may be resumed on another device (the devices used are
+recorded, like the thread counts): it continues, but is not bit-identical to an uninterrupted one.
+
 The log (--log) gets one line per epoch: date, step, epoch, lr, train and validation losses,
 images per second. The model is exported with tools/export.py's code path (folded tensors,
 metadata, plm.write_plm) to --export at the end, or from any checkpoint with --export-only.
 """
 
 import argparse
+import concurrent.futures
 import datetime
 import hashlib
 import json
@@ -101,11 +120,12 @@ COS45 = math.cos(math.radians(45.0))
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
                "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
-               "erase", "ema")
+               "erase", "ema", "w_map", "sphere_truth")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
                    "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0,
-                   "ema": 0.0}
+                   "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights"}
+AUX_PREFIX = "aux_map."   # the auxiliary map head's tensors: trained, never exported
 
 
 def log_line(path, text):
@@ -130,19 +150,65 @@ def crop_outdoor(data, limit=0):
     return torch.tensor([r[3] == "outdoor" for r in read_index(data, limit)], dtype=torch.bool)
 
 
-def load_dataset(data, hw, val_panos, limit=0):
-    """Crops of index.tsv resized to hw (area filter), u8 [M, H, W, 3], their ground truth
-    padded to MAX_GT lights, and a boolean validation mask (whole panoramas held out)."""
+class CropImages:
+    """The crops' pixels at the training size hw: images[idx] is u8 [B, H, W, 3] for a 1-D index
+    tensor. In memory (every crop decoded once here), or with stream=True decoded from its file at
+    each use by `workers` threads (memory independent of the dataset's size). Decoding is the
+    same either way (RGB, resized to hw with PIL's box filter when the crop is another size), so
+    the bytes, and a network trained on them, are the same."""
+
+    def __init__(self, paths, hw, stream=False, workers=4):
+        self.paths, self.hw, self.stream = list(paths), hw, stream
+        self.arr, self.pool = None, None
+        if stream:
+            for p in self.paths:
+                if not os.path.isfile(p):
+                    raise ValueError(f"{p}: no such crop")
+            self.pool = concurrent.futures.ThreadPoolExecutor(max(1, workers))
+        else:
+            h, w = hw
+            arr = np.zeros((len(self.paths), h, w, 3), np.uint8)
+            for i in range(len(self.paths)):
+                arr[i] = self.decode(i)
+            self.arr = torch.from_numpy(arr)
+
+    def decode(self, i):
+        h, w = self.hw
+        try:
+            with Image.open(self.paths[i]) as im:
+                im = im.convert("RGB")
+                if im.size != (w, h):
+                    im = im.resize((w, h), Image.BOX)
+                return np.asarray(im)
+        except (OSError, ValueError) as e:
+            raise ValueError(f"{self.paths[i]}: cannot read the crop ({e})") from None
+
+    def __len__(self):
+        return len(self.paths)
+
+    def __getitem__(self, idx):
+        if self.arr is not None:
+            return self.arr[idx]
+        ids = torch.as_tensor(idx).flatten().tolist()
+        return torch.from_numpy(np.stack(list(self.pool.map(self.decode, ids))))
+
+
+def load_dataset(data, hw, val_panos, limit=0, need_map=False, stream=False):
+    """Crops of index.tsv resized to hw (area filter) as CropImages (in memory, or streamed from
+    their files with stream), their ground truth padded to MAX_GT lights, and a boolean
+    validation mask (whole panoramas held out). With
+    need_map, gt["map"] [M, H', W', 3] is each crop's radiance_map (make_dataset.py --gt-map:
+    the panorama in the crop's camera frame on its scale), which every crop must have."""
     index = os.path.join(data, "index.tsv")
     rows = read_index(data, limit)
     if not rows:
         raise ValueError(f"{index}: no crops")
     # only real panoramas are held out: synthetic rooms (synth/, make_dataset.py --synthetic)
     # always train, so adding them leaves the validation set as it was
-    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith("train/")},
+    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith(("train/", "panos/"))},
                    key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
     if val_panos and val_panos >= len(panos):
-        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} train/ panoramas in the "
+        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} real panoramas in the "
                          "data (synthetic rooms are never held out)")
     # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
     indoor = [p for p, s in panos if s != "outdoor"]
@@ -151,21 +217,16 @@ def load_dataset(data, hw, val_panos, limit=0):
     k_out = min(len(outdoor), val_panos - k_in)
     held = set(indoor[:k_in] + outdoor[:k_out])
     held |= set([p for p, _ in panos if p not in held][:val_panos - len(held)])
-    h, w = hw
     m = len(rows)
-    imgs = np.zeros((m, h, w, 3), np.uint8)
     gt = {"dir": torch.zeros(m, MAX_GT, 3), "size": torch.ones(m, MAX_GT),
           "rgb": torch.zeros(m, MAX_GT, 3), "dist": torch.ones(m, MAX_GT),
           "mask": torch.zeros(m, MAX_GT), "ambient": torch.zeros(m, 3)}
     val = torch.zeros(m, dtype=torch.bool)
     for i, (png, js, pano, _scene) in enumerate(rows):
-        if not pano.startswith(("train/", "synth/")):
-            raise ValueError(f"{index}: {pano} is neither a train panorama nor a synthetic room")
-        with Image.open(os.path.join(data, png)) as im:
-            im = im.convert("RGB")
-            if im.size != (w, h):
-                im = im.resize((w, h), Image.BOX)
-            imgs[i] = np.asarray(im)
+        if not pano.startswith(("train/", "panos/", "synth/")):
+            # the shared eval/ panoramas never reach a dataset (make_dataset.py refuses them)
+            raise ValueError(f"{index}: {pano} is neither a train panorama, a --panos folder's "
+                             "panorama nor a synthetic room")
         with open(os.path.join(data, js), encoding="utf-8") as f:
             obj = json.load(f)
         try:
@@ -179,17 +240,106 @@ def load_dataset(data, hw, val_panos, limit=0):
         gt["dist"][i, :n] = dist.float()
         gt["mask"][i, :n] = 1
         gt["ambient"][i] = amb.float()
+        if need_map:
+            try:
+                rm = radiance_map(obj)
+            except ValueError as e:
+                raise ValueError(f"{js}: {e} (make the dataset with make_dataset.py --gt-map)") \
+                    from None
+            if "map" not in gt:
+                gt["map"] = torch.zeros(m, *rm.shape)
+            elif gt["map"].shape[1:] != rm.shape:
+                raise ValueError(f"{js}: radiance_map {tuple(rm.shape)}, the others "
+                                 f"{tuple(gt['map'].shape[1:])}")
+            gt["map"][i] = rm
         val[i] = pano in held
     with open(index, "rb") as f:
         digest = hashlib.sha256(f.read()).hexdigest()
-    return torch.from_numpy(imgs), gt, val, sorted(held), digest
+    imgs = CropImages([os.path.join(data, r[0]) for r in rows], hw, stream)
+    return imgs, gt, val, sorted(held), digest
+
+
+def radiance_map(obj):
+    """The radiance_map of a ground-truth JSON (parlight crop --gt-map) as float [H, W, 3]."""
+    rm = obj.get("radiance_map")
+    if not isinstance(rm, dict):
+        raise ValueError("no radiance_map")
+    w, h, rgb = rm.get("width"), rm.get("height"), rm.get("rgb")
+    if not (isinstance(w, int) and isinstance(h, int) and 4 <= w <= 256 and w == 2 * h and
+            isinstance(rgb, list) and len(rgb) == w * h * 3):
+        raise ValueError("radiance_map: expected width = 2 x height in 4..256 and "
+                         "width x height x 3 values")
+    t = torch.tensor(rgb, dtype=torch.float32).view(h, w, 3)
+    if not bool(torch.isfinite(t).all()) or bool((t < 0).any()):
+        raise ValueError("radiance_map: negative or non-finite values")
+    return t
+
+
+class AuxMap(torch.nn.Module):
+    """Training only (--w-map): a linear head from the 512-d vector h to the crop's radiance map
+    after log1p, [B, H, W, 3]; dropped at export (AUX_PREFIX), so the .plm and the C graph do
+    not change. It makes h, which every light head reads, carry the whole panorama's layout
+    rather than only the three extracted lights."""
+
+    def __init__(self, width, fc=512):
+        super().__init__()
+        self.hw = (width // 2, width)
+        self.lin = torch.nn.Linear(fc, width // 2 * width * 3)
+
+    def forward(self, h):
+        return self.lin(h).view(-1, *self.hw, 3)
+
+
+def make_model(cfg):
+    """ParLightNet for cfg, with the auxiliary map head when cfg["w_map"] > 0."""
+    model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
+    if cfg.get("w_map", 0.0) > 0:
+        model.aux_map = AuxMap(cfg["gt_map_width"])
+    return model
+
+
+def device_of(cfg):
+    return torch.device(cfg.get("device", "cpu"))
+
+
+def run_net(model, u8, cfg):
+    """The network's outputs for u8 images (copied to the run's device), with "aux_map" when the
+    model has the auxiliary head (under the same autocast as the network)."""
+    dev = device_of(cfg)
+    with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=cfg["bf16"]):
+        out = model(to_input(u8.to(dev)))
+        if hasattr(model, "aux_map"):
+            out["aux_map"] = model.aux_map(out["h"])
+    return out
+
+
+def load_net(model, sd):
+    """Loads a checkpoint's network into model: the auxiliary head's tensors only when model has
+    the head (a network trained with one loads into one without, and the other way round the
+    head keeps its fresh initialisation); every other tensor must match."""
+    have = model.state_dict()
+    keep = {k: v for k, v in sd.items() if not k.startswith(AUX_PREFIX) or k in have}
+    model.load_state_dict({**{k: v for k, v in have.items() if k.startswith(AUX_PREFIX)}, **keep})
+
+
+def without_aux(sd):
+    """A state dict without the auxiliary head's tensors (what ParLightNet itself holds)."""
+    return {k: v for k, v in sd.items() if not k.startswith(AUX_PREFIX)}
+
+
+def map_weights(h, w):
+    """[H, W, 1] solid-angle weights of an equirectangular map's rows, mean 1."""
+    theta = (0.5 - (torch.arange(h, dtype=torch.float64) + 0.5) / h) * math.pi
+    c = torch.cos(theta)
+    return (c / c.mean()).float().view(h, 1, 1).expand(h, w, 1)
 
 
 def to_input(u8):
-    """u8 [B, H, W, 3] -> normalised float [B, 3, H, W] (model.preprocess, batched)."""
+    """u8 [B, H, W, 3] -> normalised float [B, 3, H, W] (model.preprocess, batched), on u8's
+    device."""
     x = u8.permute(0, 3, 1, 2).float() / 255.0
-    mean = torch.tensor(MEAN).view(1, 3, 1, 1)
-    std = torch.tensor(STD).view(1, 3, 1, 1)
+    mean = torch.tensor(MEAN, device=u8.device).view(1, 3, 1, 1)
+    std = torch.tensor(STD, device=u8.device).view(1, 3, 1, 1)
     return (x - mean) / std
 
 
@@ -200,9 +350,13 @@ def flip_batch(u8, gt, flip):
 
 
 def flip_gt(gt, flip):
+    flip = flip.to(gt["dir"].device)
     g = dict(gt)
     sx = torch.where(flip, -1.0, 1.0).view(-1, 1)
     g["dir"] = torch.cat([gt["dir"][..., :1] * sx.unsqueeze(-1), gt["dir"][..., 1:]], -1)
+    if "map" in gt:
+        # x -> -x is longitude phi -> -phi: column c -> W - 1 - c (light/equirect.c)
+        g["map"] = torch.where(flip.view(-1, 1, 1, 1), gt["map"].flip(2), gt["map"])
     return g
 
 
@@ -246,7 +400,9 @@ def radiance_tf(x, mode):
 
 def step1_loss(out, gt, udirs, cfg, render=None):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
-    w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper; render = (udirs, op))."""
+    w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
+    head's loss when --w-map > 0. render = (udirs, op, op of the crops' radiance maps or None,
+    their rows' solid-angle weights or None)."""
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
                    prefilter_sigma=pf)
@@ -257,9 +413,13 @@ def step1_loss(out, gt, udirs, cfg, render=None):
     total = cfg["w_r"] * lr + cfg["w_a"] * la
     parts = {"map": float(lr), "amb": float(la)}
     if cfg.get("w_d1", 0.0) > 0:
-        ls = sphere_l2(pm, out["ambient"].float(), gm, gt["ambient"], render[1], cfg)
+        ls = sphere_l2(pm, out["ambient"].float(), gm, gt, render, cfg)
         total = total + cfg["w_d1"] * ls
         parts["sphere"] = float(ls)
+    if cfg.get("w_map", 0.0) > 0:
+        lm = (((out["aux_map"].float() - torch.log1p(gt["map"])) ** 2) * render[3]).mean()
+        total = total + cfg["w_map"] * lm
+        parts["aux"] = float(lm)
     return total, parts
 
 
@@ -272,37 +432,47 @@ def match(pred_dir, gt):
     return idx, best >= COS45
 
 
-def sphere_l2(pm, pamb, gm, gamb, op, cfg):
+def sphere_l2(pm, pamb, gm, gt, render, cfg):
     """L2 between the diffuse spheres (sg.diffuse, after the radiance transform) lit by the
     predicted and the ground-truth maps of lights pm, gm plus their ambients: the whole
     lighting's energy and its low-frequency shape, which the per-light losses of step 2 do not
     see. op's weights sum to 1 per normal, so an ambient adds itself to every sphere pixel.
+    --sphere-truth map: the truth sphere is lit by the crop's real panorama (gt["map"], through
+    render[2], the operator of its width) instead of the extracted lights: what `parlight eval`
+    scores against, including all the light the extraction leaves out.
     --sphere-metric relative: instead, the squared difference of the linear spheres divided by
     the square of the ground-truth sphere's mean, per crop: the square of the render RMSE that
     `parlight eval` scores, relative to the truth's mean (it punishes a too-bright estimate more
     than log1p does)."""
-    ps, gs = sg.diffuse(pm, op) + pamb[:, None, :], sg.diffuse(gm, op) + gamb[:, None, :]
+    op = render[1]
+    ps = sg.diffuse(pm, op) + pamb[:, None, :]
+    if cfg.get("sphere_truth", "lights") == "map":
+        gs = sg.diffuse(gt["map"], render[2])
+    else:
+        gs = sg.diffuse(gm, op) + gt["ambient"][:, None, :]
     if cfg.get("sphere_metric", "log") == "relative":
         scale = gs.mean(dim=(1, 2), keepdim=True).clamp_min(1e-3)
         return F.mse_loss(ps / scale, gs / scale)
     return F.mse_loss(radiance_tf(ps, cfg["radiance"]), radiance_tf(gs, cfg["radiance"]))
 
 
-def diffuse_loss(out, gt, udirs, op, cfg):
+def diffuse_loss(out, gt, render, cfg):
     """sphere_l2 of the predicted and ground-truth lightings (rendering their maps first)."""
+    udirs = render[0]
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
                    prefilter_sigma=pf)
-    gm = sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, mask=gt["mask"], prefilter_sigma=pf)
-    return sphere_l2(pm, out["ambient"].float(), gm, gt["ambient"], op, cfg)
+    gm = (None if cfg.get("sphere_truth", "lights") == "map" else
+          sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, mask=gt["mask"], prefilter_sigma=pf))
+    return sphere_l2(pm, out["ambient"].float(), gm, gt, render, cfg)
 
 
 def step2_loss(out, gt, cfg, render=None):
     """Ambient L2 + sum over matched predicted lights of L2 on distance, size and colour (the
-    paper's step 2, --step2-loss paper); with `render` = (udirs, op) and --step2-loss render or
+    paper's step 2, --step2-loss paper); with `render` (step1_loss) and --step2-loss render or
     both, w_d times diffuse_loss instead of (render) or beside (both) the per-light terms."""
     mode = cfg.get("step2_loss", "paper")
-    ld_sphere = (cfg["w_d"] * diffuse_loss(out, gt, render[0], render[1], cfg)
+    ld_sphere = (cfg["w_d"] * diffuse_loss(out, gt, render, cfg)
                  if mode != "paper" else torch.zeros(()))
     if mode == "render":
         la = F.mse_loss(radiance_tf(out["ambient"], cfg["radiance"]),
@@ -351,7 +521,7 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
         raise ValueError(f"{ckpt_path}: not a train.py checkpoint (no model/config)")
     cfg = ck["config"]
     model = ParLightNet(cfg["n_lights"], tuple(cfg["input"])).eval()
-    model.load_state_dict(ck["model"])
+    model.load_state_dict(without_aux(ck["model"]))
     with open(ckpt_path, "rb") as f:
         digest = hashlib.sha256(f.read()).hexdigest()
     st = ck.get("state", {})
@@ -361,6 +531,8 @@ def export_ckpt(ckpt_path, out, force=False, provenance_extra=""):
             f"{cfg['input'][0]}x{cfg['input'][1]}, torch {torch.__version__}"
             + (f" on {', then '.join(map(str, cfg['threads']))} thread(s)"
                if cfg.get("threads") else "")
+            + (f", devices {', then '.join(cfg['devices'])}"
+               if cfg.get("devices", ["cpu"]) != ["cpu"] else "")
             + ", exported "
             f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%dT%H:%M:%SZ}"
             + (f", {'network' if cfg.get('init_all') else 'encoder'} initialised from "
@@ -387,11 +559,29 @@ def threads_used(old, now):
 
 def inherit(cfg, old):
     """What a run takes from the checkpoint it continues (old: that checkpoint's config): its
-    starting point, whether step 1 ended on the moving average, and every thread count used so
-    far (the weights depend on the count: reduction order)."""
+    starting point, whether step 1 ended on the moving average, and every thread count and
+    device used so far (the weights depend on them: reduction order)."""
     cfg["init"] = old.get("init")
     cfg["step1_average"] = old.get("step1_average", 0.0)
     cfg["threads"] = threads_used(old.get("threads"), cfg["threads"])
+    cfg["devices"] = threads_used(old.get("devices", ["cpu"]), cfg["devices"])
+
+
+def parse_device(name):
+    """torch.device of --device, refused with a reason when this torch cannot use it."""
+    try:
+        dev = torch.device(name)
+    except RuntimeError as e:
+        raise ValueError(f"--device {name!r}: {e}") from None
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ValueError(f"--device {name}: this torch ({torch.__version__}) sees no CUDA "
+                             "device (torch.cuda.is_available() is false)")
+        if dev.index is not None and dev.index >= torch.cuda.device_count():
+            raise ValueError(f"--device {name}: only {torch.cuda.device_count()} CUDA device(s)")
+    elif dev.type != "cpu":
+        raise ValueError(f"--device {name}: expected cpu, cuda or cuda:N")
+    return dev
 
 
 def lr_at(cfg, epoch):
@@ -406,9 +596,7 @@ def evaluate(model, imgs, gt, idx, udirs, cfg, phase, bs=32, render=None):
     with torch.no_grad():
         for i in range(0, len(idx), bs):
             j = idx[i:i + bs]
-            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
-                out = model(to_input(imgs[j]))
-            out = {k: v.float() for k, v in out.items()}
+            out = {k: v.float() for k, v in run_net(model, imgs[j], cfg).items()}
             g = take(gt, j)
             loss = (step1_loss(out, g, udirs, cfg, render)[0] if phase == 1
                     else step2_loss(out, g, cfg, render)[0])
@@ -463,8 +651,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
                 u8 = erase_batch(u8, erase_on[sl], erase_prm[sl])
             if model.z_dropout > 0:
                 torch.manual_seed((cfg["seed"] * 100003 + ep) * 100003 + b)
-            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
-                out = model(to_input(u8))
+            out = run_net(model, u8, cfg)
             loss, parts = step1_loss(out, g, udirs, cfg, render)
             if not torch.isfinite(loss):
                 raise RuntimeError(f"step 1 epoch {ep} batch {b}: loss is {float(loss)}")
@@ -476,8 +663,9 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
             sums["loss"] += float(loss)
             sums["map"] += parts["map"]
             sums["amb"] += parts["amb"]
-            if "sphere" in parts:
-                sums["sphere"] = sums.get("sphere", 0.0) + parts["sphere"]
+            for key in ("sphere", "aux"):
+                if key in parts:
+                    sums[key] = sums.get(key, 0.0) + parts[key]
             sums["n"] += 1
             seen += len(j)
             state["batch"] = b + 1
@@ -500,7 +688,8 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
                   if ema is not None else "")
         log_line(paths["log"], f"step1 epoch {ep + 1}/{cfg['step1_epochs']} lr {lr_at(cfg, ep):.3g} "
                  f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}"
-                 + (f" sphere {sums['sphere'] / n:.6g}" if "sphere" in sums else "") + ") "
+                 + (f" sphere {sums['sphere'] / n:.6g}" if "sphere" in sums else "")
+                 + (f" aux {sums['aux'] / n:.6g}" if "aux" in sums else "") + ") "
                  f"val {vl:.6g}{vl_ema} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
                  + (" (resumed epoch: rate over its last part)" if resumed_at else ""))
         state.update(epoch=ep + 1, batch=0)
@@ -530,8 +719,8 @@ def step2_features(model, imgs, idx, cfg, bs=32):
         for i in range(0, len(idx), bs):
             j = idx[i:i + bs]
             for f in (0, 1):
-                u8 = imgs[j].flip(2) if f else imgs[j]
-                with torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg["bf16"]):
+                u8 = (imgs[j].flip(2) if f else imgs[j]).to(device_of(cfg))
+                with torch.autocast(u8.device.type, dtype=torch.bfloat16, enabled=cfg["bf16"]):
                     z = model.latent(to_input(u8))
                 z = z.float()
                 h = F.relu(model.fc(z))
@@ -551,6 +740,8 @@ def heads(model, z, h, d):
 
 
 def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None, render=None):
+    if state["epoch"] >= cfg["step2_epochs"]:
+        return      # nothing to train (e.g. --step2-epochs 0): skip the frozen features
     params = [p for name in STEP2_HEADS for p in getattr(model, name).parameters()]
     for p in model.parameters():
         p.requires_grad_(False)
@@ -576,7 +767,7 @@ def train_step2(model, imgs, gt, tr, va, cfg, state, paths, resume_opt=None, ren
         sums, n = {}, 0
         for b in range(0, len(tr) - bs + 1, bs):
             j = perm[b:b + bs]
-            fl = flips[b:b + bs]
+            fl = flips[b:b + bs].to(device_of(cfg))
             sel = lambda k: torch.where(fl.view(-1, *[1] * (ftr[0][k].dim() - 1)),  # noqa: E731
                                         ftr[1][k][j], ftr[0][k][j])
             g = flip_gt(take(gtr, j), fl)
@@ -642,9 +833,19 @@ def main(argv=None):
     ap.add_argument("--ema", type=float, default=0.0, metavar="D",
                     help="step 1: keep an exponential moving average of the weights with decay D "
                          "(e.g. 0.999) and end step 1 on it (0: off)")
+    ap.add_argument("--w-map", type=float, default=0.0, metavar="W",
+                    help="step 1: weight of an auxiliary head (training only, not exported) "
+                    "regressing the crop's radiance map after log1p from the 512-d vector "
+                    "(needs a dataset made with make_dataset.py --gt-map; 0: off)")
+    ap.add_argument("--sphere-truth", choices=("lights", "map"), default="lights",
+                    help="the diffuse-sphere terms' truth: the sphere lit by the extracted lights "
+                    "and ambient, or by the crop's real panorama (--gt-map datasets)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
+    ap.add_argument("--stream", action="store_true", help="decode the crops from their files at "
+                    "each use instead of holding them all in memory (same results)")
     ap.add_argument("--ckpt-minutes", type=float, default=5.0)
     ap.add_argument("--max-steps", type=int, default=0, help="stop after this many step-1 "
                     "batches in total (tests, sanity checks)")
@@ -684,6 +885,9 @@ def main(argv=None):
                 raise ValueError(f"{name} {v}: expected a probability in [0, 1)")
         if not 0.0 <= args.ema < 1.0:
             raise ValueError(f"--ema {args.ema}: expected a decay in [0, 1)")
+        if not (0.0 <= args.w_map and math.isfinite(args.w_map)):
+            raise ValueError(f"--w-map {args.w_map}: expected a weight >= 0")
+        need_map = args.w_map > 0 or args.sphere_truth == "map"
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
         if not (args.lr > 0 and math.isfinite(args.lr)):
@@ -697,7 +901,10 @@ def main(argv=None):
                  "final": os.path.join(args.ckpt_dir, "final.pt"), "log": args.log}
 
         t0 = time.time()
-        imgs, gt, val, held, digest = load_dataset(args.data, args.input, args.val_panos, args.limit)
+        dev = parse_device(args.device)
+        imgs, gt, val, held, digest = load_dataset(args.data, args.input, args.val_panos,
+                                                   args.limit, need_map, args.stream)
+        gt = {k: v.to(dev) for k, v in gt.items()}
         keep = ~val
         if args.train_scenes == "indoor":
             keep &= ~crop_outdoor(args.data, args.limit)
@@ -714,16 +921,24 @@ def main(argv=None):
                "step2_loss": args.step2_loss, "w_d": args.w_d, "w_d1": args.w_d1,
                "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
                "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
+               "w_map": args.w_map, "sphere_truth": args.sphere_truth,
+               "gt_map_width": int(gt["map"].shape[2]) if need_map else 0,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
-               "threads": [max(1, args.threads)],
+               "threads": [max(1, args.threads)], "device": args.device,
+               "devices": [args.device],
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
                "init_all": bool(args.init and args.init_all)}
         udirs = sg.equirect_dirs(args.map_width)
-        render = (udirs, sg.diffuse_operator(args.map_width, sg.sphere_normals(16)))
+        udirs = udirs.to(dev)
+        render = (udirs, sg.diffuse_operator(args.map_width, sg.sphere_normals(16)).to(dev),
+                  sg.diffuse_operator(cfg["gt_map_width"], sg.sphere_normals(16)).to(dev)
+                  if need_map else None,
+                  map_weights(cfg["gt_map_width"] // 2, cfg["gt_map_width"]).to(dev)
+                  if need_map else None)
 
         torch.manual_seed(args.seed)
-        model = ParLightNet(args.n_lights, args.input)
+        model = make_model(cfg).to(dev)
         opt = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.9, 0.999))
         state = {"phase": 1, "epoch": 0, "batch": 0, "steps": 0}
         step2_opt = None
@@ -756,7 +971,7 @@ def main(argv=None):
                     old.get("n_lights") != cfg["n_lights"]:
                 raise ValueError(f"{args.step2_from}: not a train.py checkpoint of input "
                                  f"{cfg['input']} with {cfg['n_lights']} lights")
-            model.load_state_dict(ck["model"])
+            load_net(model, ck["model"])
             inherit(cfg, old)
             cfg["step2_from"] = os.path.abspath(args.step2_from)
             state = {"phase": 2, "epoch": 0, "batch": 0, "steps": 0}
@@ -769,7 +984,7 @@ def main(argv=None):
                 sd = ck.get("model") if isinstance(ck, dict) else None
                 if args.init_all:
                     try:
-                        model.load_state_dict(sd or {})
+                        load_net(model, sd or {})
                     except RuntimeError as e:
                         raise ValueError(f"{args.init}: not a network of this configuration "
                                          f"({str(e).splitlines()[0]})") from None
@@ -786,7 +1001,7 @@ def main(argv=None):
         if state["phase"] == 1:
             ema = None
             if args.ema > 0:
-                ema = ParLightNet(args.n_lights, args.input).eval()
+                ema = make_model(cfg).to(dev).eval()
                 ema.load_state_dict(ema_resume if ema_resume is not None else model.state_dict())
             if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render,
                                ema):

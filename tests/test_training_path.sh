@@ -1,0 +1,108 @@
+#!/usr/bin/env bash
+# The whole training path of docs/TRAINING.md on a few panoramas, on the CPU, as a user with their
+# own panoramas runs it: a folder of equirectangular HDR files (3 of the shared train/ panoramas,
+# linked into a user-style folder with a subfolder, an .exr among them, one file that is not a
+# panorama) -> make_dataset.py --panos (crops + ground truth with radiance maps; the bad file
+# reported and left out; a rerun resumes and changes nothing) -> distill.py (1 epoch) ->
+# train.py steps 1 and 2 with the dense supervision (--w-map, --sphere-truth map), --stream ->
+# the export (C agrees with PyTorch) -> the intensity anchor fitted on `parlight eval --anchor
+# off` of a held-out panorama -> parlight quantize (int8) -> `parlight eval --json` of the float
+# and int8 models. Also: make_dataset.py refuses the shared eval/ folder, and train.py
+# --device cuda is refused with a reason where there is no CUDA device.
+# Needs ../shared (panoramas and the MobileNetV2 teacher). ~3 minutes on 2 cores.
+# Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
+set -u
+cd "$(dirname "$0")/.."
+PY=/usr/bin/python3
+BUILD=${BUILD:-build}
+PL_SHARED=${PL_SHARED:-$(cd .. && pwd)/shared}
+export PL_SHARED
+TMP=${PL_TEST_TMP:-$(mktemp -d)}/training_path
+rm -rf "$TMP"
+mkdir -p "$TMP"
+if ! "$PY" -c 'import torch, torchvision, numpy, PIL' 2>/dev/null; then
+    echo "skip: $PY lacks torch/torchvision/numpy/PIL (tools/install-deps.sh installs them)"
+    exit 77
+fi
+H=$PL_SHARED/data/hdri
+TEACHER=$PL_SHARED/data/pretrained/mobilenet_v2_1.0_224_quant.tflite
+for f in "$H/train/brown_photostudio_03.exr" "$H/train/lythwood_room.hdr" \
+    "$H/train/pine_attic.hdr" "$H/train/comfy_cafe.hdr" "$TEACHER"; do
+    [ -f "$f" ] || { echo "skip: no $f (the shared panoramas and teacher)"; exit 77; }
+done
+[ -x "$BUILD/parlight" ] || { echo "FAIL: no $BUILD/parlight (build first)"; exit 1; }
+fail() { echo "FAIL: $*"; exit 1; }
+
+# a user's folder: nested, mixed formats, one file that is not a 2:1 panorama
+P=$TMP/my-panos
+mkdir -p "$P/flat2"
+ln -s "$H/train/brown_photostudio_03.exr" "$P/studio.exr"
+ln -s "$H/train/lythwood_room.hdr" "$P/flat2/living.hdr"
+ln -s "$H/train/pine_attic.hdr" "$P/flat2/attic.hdr"
+"$PY" - "$P/square.hdr" <<'EOF'
+# a 4 x 4 RGBE file: readable, not 2:1
+import sys
+with open(sys.argv[1], "wb") as f:
+    f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 4\n" + bytes([128, 128, 128, 129]) * 16)
+EOF
+DS=("$PY" tools/train/make_dataset.py --panos "$P" --scene indoor --crops-per-pano 4
+    --size 128x96 --gt-map 16 --jobs 2 --parlight "$BUILD/parlight" --quiet --out "$TMP/data")
+"${DS[@]}" 2>"$TMP/ds.err" >/dev/null || fail "make_dataset.py --panos: $(cat "$TMP/ds.err")"
+grep -q "skipped panos/square.hdr" "$TMP/ds.err" || fail "the non-panorama was not reported: $(cat "$TMP/ds.err")"
+[ "$(wc -l <"$TMP/data/index.tsv")" -eq 13 ] || fail "index.tsv: expected 12 crops"
+grep -q $'\tpanos/flat2/attic.hdr\tindoor' "$TMP/data/index.tsv" || fail "no panos/ rows in the index"
+sum1=$(cat "$TMP"/data/crops/* | sha256sum)
+"${DS[@]}" >/dev/null 2>&1 || fail "make_dataset.py --panos rerun"
+[ "$(cat "$TMP"/data/crops/* | sha256sum)" = "$sum1" ] || fail "a rerun changed the crops"
+"$PY" tools/train/make_dataset.py --panos "$H/eval" --out "$TMP/evalds" --parlight "$BUILD/parlight" \
+    >"$TMP/e.log" 2>&1 && fail "the shared eval/ folder was accepted"
+grep -q "never trained on" "$TMP/e.log" || fail "no reason: $(cat "$TMP/e.log")"
+echo "make_dataset.py --panos: 12 crops of 3 panoramas, the non-panorama reported, resumable"
+
+"$PY" tools/train/distill.py --data "$TMP/data" --teacher "$TEACHER" --input 96x128 --batch 4 \
+    --epochs 1 --threads 1 --val-panos 1 --out "$TMP/enc/enc.pt" --stream >"$TMP/d.log" 2>&1 ||
+    fail "distill.py: $(cat "$TMP/d.log")"
+TR=("$PY" tools/train/train.py --data "$TMP/data" --input 96x128 --batch 4 --val-panos 1
+    --step1-epochs 1 --step2-epochs 1 --threads 1 --w-d1 5 --step2-loss render
+    --train-scenes indoor --w-map 1 --sphere-truth map --stream)
+"${TR[@]}" --init "$TMP/enc/enc.pt" --ckpt-dir "$TMP/run" --log "$TMP/run/log.txt" \
+    --export "$TMP/m.plm" >"$TMP/t.log" 2>&1 || fail "train.py: $(cat "$TMP/t.log")"
+grep -q " aux " "$TMP/run/log.txt" || fail "no auxiliary loss logged"
+"${TR[@]}" --device cuda --ckpt-dir "$TMP/cuda" --log "$TMP/cuda.txt" >"$TMP/c.log" 2>&1 &&
+    ! "$PY" -c 'import torch, sys; sys.exit(torch.cuda.is_available())' &&
+    fail "--device cuda accepted without CUDA"
+"$PY" -c 'import torch, sys; sys.exit(torch.cuda.is_available())' &&
+    { grep -q "sees no CUDA device" "$TMP/c.log" || fail "--device cuda: no reason: $(cat "$TMP/c.log")"; }
+f=$(ls "$TMP"/data/crops/*.png | head -1)
+"$PY" tools/train/check_export.py --ckpt "$TMP/run/final.pt" --plm "$TMP/m.plm" --frame "$f" \
+    --parlight "$BUILD/parlight" >/dev/null || fail "C and PyTorch disagree on the export"
+echo "distill.py, train.py (dense supervision, streamed), export: ok"
+
+# the held-out panorama of --val-panos 1, scored by parlight eval, fits the anchor
+held=$("$PY" -c "import torch; print(torch.load('$TMP/run/final.pt', map_location='cpu')['config']['held_out'][0])")
+V=$TMP/val
+mkdir -p "$V"
+ln -s "$P/${held#panos/}" "$V/"
+"$BUILD/parlight" eval --model "$TMP/m.plm" --hdr "$V" --crops 2 --anchor off --json \
+    >"$TMP/raw.json" || fail "parlight eval --anchor off"
+"$PY" tools/train/fit_anchor.py "$TMP/raw.json" --write "$TMP/m.plm" "$TMP/ma.plm" \
+    >"$TMP/a.log" 2>&1 || fail "fit_anchor.py: $(cat "$TMP/a.log")"
+"$BUILD/parlight" info --model "$TMP/ma.plm" | grep -q "anchor" || fail "no anchor in the model"
+mkdir -p "$TMP/calib"
+"$BUILD/parlight" crop --hdr "$H/train/comfy_cafe.hdr" --batch 4 --out-dir "$TMP/calib" \
+    --format jpg >/dev/null || fail "calibration frames"
+rm -f "$TMP"/calib/*.json
+"$BUILD/parlight" quantize --model "$TMP/ma.plm" --calib "$TMP/calib" --out "$TMP/m8.plm" \
+    >"$TMP/q.log" 2>&1 || fail "parlight quantize: $(cat "$TMP/q.log")"
+for m in ma m8; do
+    "$BUILD/parlight" eval --model "$TMP/$m.plm" --hdr "$V" --crops 2 --json >"$TMP/$m.json" ||
+        fail "parlight eval $m"
+    "$PY" - "$TMP/$m.json" <<'EOF' || fail "eval JSON of $m"
+import json, math, sys
+d = json.load(open(sys.argv[1]))
+assert d["n_panoramas"] == 1, d["n_panoramas"]
+s = json.dumps(d)
+assert '"model"' in s, "no model scores"
+EOF
+done
+echo "anchor, int8 and parlight eval of the trained model: ok"
