@@ -130,6 +130,26 @@ def crop_outdoor(data, limit=0):
     return torch.tensor([r[3] == "outdoor" for r in read_index(data, limit)], dtype=torch.bool)
 
 
+def held_out_panoramas(rows, val_panos):
+    """The set of panoramas --val-panos holds out, from index.tsv rows (png, json, panorama,
+    scene): chosen by name hash, half of them indoor or indoor-semi, half outdoor (when both
+    exist). Only real panoramas are held out: synthetic rooms (synth/, make_dataset.py
+    --synthetic) always train, so adding them leaves the validation set as it was. Used by
+    load_dataset and by tools/train/fit_ridge.py (the same held-out rooms for both)."""
+    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith("train/")},
+                   key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
+    if val_panos and val_panos >= len(panos):
+        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} train/ panoramas in the "
+                         "data (synthetic rooms are never held out)")
+    indoor = [p for p, s in panos if s != "outdoor"]
+    outdoor = [p for p, s in panos if s == "outdoor"]
+    k_in = min(len(indoor), (val_panos + 1) // 2)
+    k_out = min(len(outdoor), val_panos - k_in)
+    held = set(indoor[:k_in] + outdoor[:k_out])
+    held |= set([p for p, _ in panos if p not in held][:val_panos - len(held)])
+    return held
+
+
 def load_dataset(data, hw, val_panos, limit=0):
     """Crops of index.tsv resized to hw (area filter), u8 [M, H, W, 3], their ground truth
     padded to MAX_GT lights, and a boolean validation mask (whole panoramas held out)."""
@@ -137,20 +157,7 @@ def load_dataset(data, hw, val_panos, limit=0):
     rows = read_index(data, limit)
     if not rows:
         raise ValueError(f"{index}: no crops")
-    # only real panoramas are held out: synthetic rooms (synth/, make_dataset.py --synthetic)
-    # always train, so adding them leaves the validation set as it was
-    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith("train/")},
-                   key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
-    if val_panos and val_panos >= len(panos):
-        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} train/ panoramas in the "
-                         "data (synthetic rooms are never held out)")
-    # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
-    indoor = [p for p, s in panos if s != "outdoor"]
-    outdoor = [p for p, s in panos if s == "outdoor"]
-    k_in = min(len(indoor), (val_panos + 1) // 2)
-    k_out = min(len(outdoor), val_panos - k_in)
-    held = set(indoor[:k_in] + outdoor[:k_out])
-    held |= set([p for p, _ in panos if p not in held][:val_panos - len(held)])
+    held = held_out_panoramas(rows, val_panos)
     h, w = hw
     m = len(rows)
     imgs = np.zeros((m, h, w, 3), np.uint8)
