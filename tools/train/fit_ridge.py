@@ -358,11 +358,12 @@ def golden(out_dir):
     """A small random model and the features, outputs and lighting of golden_image on it."""
     rng = np.random.default_rng(20261203)
     n = 3 * GRID[0] * GRID[1]
-    weights = rng.normal(0, 0.02, (len(OUTPUTS), n))
-    bias = rng.normal(0, 0.5, len(OUTPUTS))
+    rnd6 = np.vectorize(lambda v: float(f"{v:.6g}"))  # a smaller file; the numbers are exact
+    weights = rnd6(rng.normal(0, 0.02, (len(OUTPUTS), n)))
+    bias = rnd6(rng.normal(0, 0.5, len(OUTPUTS)))
     made = ("tools/train/fit_ridge.py --golden " + os.path.relpath(out_dir, ROOT) +
-            ": weights N(0, 0.02) and bias N(0, 0.5) from numpy default_rng(20261203), "
-            f"numpy {np.__version__}; never edit by hand")
+            ": weights N(0, 0.02) and bias N(0, 0.5) from numpy default_rng(20261203) rounded "
+            f"to 6 digits, numpy {np.__version__}; never edit by hand")
     model = model_dict(weights, bias, {"fit": {"tool": made}})
     write_json(os.path.join(out_dir, "model.json"), model, True)
     model = load_model(os.path.join(out_dir, "model.json"))  # the numbers as the C side reads them
@@ -372,8 +373,15 @@ def golden(out_dir):
         y = outputs(model, f)
         cases.append({"width": w, "height": h, "gamma": gamma, "features": [float(v) for v in f],
                       "outputs": [float(v) for v in y], "lighting": lighting(y)})
+    # outputs at the edges of predict's rules: a zero and a tiny direction, clamped logs
+    edge = [[0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+            [1e-7, -2e-7, 0, 40, -40, 1, -20, 31, -31, 0.5],
+            [0.3, -4, 2, -1, 2, 3, 5, -2, -3, -4],
+            [-1, 0.5, -0.25, 0, 0, 0, -100, 0, 0, 0]]
     write_json(os.path.join(out_dir, "golden.json"),
-               {"made_by": made, "model": "model.json", "cases": cases}, True)
+               {"made_by": made, "model": "model.json", "cases": cases,
+                "lighting_cases": [{"outputs": y, "lighting": lighting(np.array(y, float))}
+                                   for y in edge]}, True)
     print(f"{out_dir}: model.json, golden.json ({len(cases)} cases)")
 
 
