@@ -494,7 +494,7 @@ int cmd_eval(int argc, char **argv)
             ridge_path[0] = '\0';
     }
     if (ridge_path[0] && pl_ridge_load(ridge_path, &ridge) < 0) {
-        fprintf(stderr, "parlight eval: --ridge: %s\n", pl_last_error());
+        fprintf(stderr, "parlight eval: (d) ridge model: %s\n", pl_last_error());
         goto out;
     }
     if (!ridge)
