@@ -166,8 +166,9 @@ def read_crop(data, png, js, pano):
 
 
 def read_dataset(data, val_panos):
-    """Features X [M, 576], targets Y [M, 10], has_light [M], panorama per crop, the held-out
-    panoramas, the index's sha256 and the dataset's configuration."""
+    """Features X [M, 576], targets Y [M, 10], has_light [M], panorama and indoor flag (scene
+    not outdoor) per crop, the held-out panoramas, the index's sha256 and the dataset's
+    configuration."""
     index = os.path.join(data, "index.tsv")
     with open(index, encoding="utf-8") as f:
         lines = [ln.rstrip("\n").split("\t") for ln in f]
@@ -185,8 +186,8 @@ def read_dataset(data, val_panos):
         sys.path.insert(0, HERE)
         import train  # noqa: E402  (torch, only for the split)
         held = train.held_out_panoramas(rows, val_panos)
-    X, Y, H, P = [], [], [], []
-    for png, js, pano, _scene in (r[:4] for r in rows):
+    X, Y, H, P, IN = [], [], [], [], []
+    for png, js, pano, scene in (r[:4] for r in rows):
         if pano in held:
             continue
         f, y, has = read_crop(data, png, js, pano)
@@ -194,6 +195,7 @@ def read_dataset(data, val_panos):
         Y.append(y)
         H.append(has)
         P.append(pano)
+        IN.append(scene != "outdoor")
     with open(index, "rb") as f:
         digest = hashlib.sha256(f.read()).hexdigest()
     cfg = None
@@ -201,7 +203,8 @@ def read_dataset(data, val_panos):
     if os.path.exists(cfg_path):
         with open(cfg_path, encoding="utf-8") as f:
             cfg = json.load(f)
-    return np.array(X), np.array(Y), np.array(H, dtype=bool), P, sorted(held), digest, cfg
+    return (np.array(X), np.array(Y), np.array(H, dtype=bool), P, np.array(IN, dtype=bool),
+            sorted(held), digest, cfg)
 
 
 # ---- ridge ------------------------------------------------------------------------------------
@@ -240,9 +243,9 @@ def angles_deg(pred, truth):
     return np.degrees(np.arccos(np.clip((d * truth).sum(1), -1, 1)))
 
 
-def cross_validate(X, Y, has, fold, lambdas):
+def cross_validate(X, Y, has, indoor, fold, lambdas):
     """Per lambda, the cross-validated MSE of each group and the median angle of the primary
-    direction (pooled over folds)."""
+    direction (pooled over folds), also over the indoor crops alone."""
     k = int(fold.max()) + 1
     pred = {g: np.full((len(lambdas),) + Y[:, idx].shape, np.nan) for g, idx in GROUPS.items()}
     for f in range(k):
@@ -266,6 +269,8 @@ def cross_validate(X, Y, has, fold, lambdas):
         a = angles_deg(pred["dir"][li][has], Y[has][:, 0:3])
         s["median_angle_deg"] = float(np.median(a))
         s["q1_angle_deg"], s["q3_angle_deg"] = (float(v) for v in np.percentile(a, [25, 75]))
+        ind = indoor[has]
+        s["median_angle_deg_indoor"] = float(np.median(a[ind])) if ind.any() else None
         scores.append(s)
     return scores
 
@@ -428,7 +433,7 @@ def main(argv=None):
             lambdas = [float(v) for v in args.lambdas.split(",")]
             if not lambdas or not all(math.isfinite(v) and v > 0 for v in lambdas):
                 raise ValueError(f"--lambdas {args.lambdas}: expected numbers > 0")
-        X, Y, has, panos, held, digest, cfg = read_dataset(args.data, args.val_panos)
+        X, Y, has, panos, indoor, held, digest, cfg = read_dataset(args.data, args.val_panos)
         n_pano = len(set(panos))
         if n_pano < 2:
             raise ValueError(f"{args.data}: {n_pano} panorama left; cross-validation needs 2")
@@ -436,7 +441,7 @@ def main(argv=None):
             raise ValueError(f"{args.data}: fewer than 2 crops with a ground-truth light")
         k = min(args.folds, n_pano)
         fold = folds_of(panos, k)
-        scores = cross_validate(X, Y, has, fold, lambdas)
+        scores = cross_validate(X, Y, has, indoor, fold, lambdas)
         chosen, edge = {}, []
         for g in GROUPS:
             best = min(range(len(lambdas)), key=lambda i: (scores[i][f"mse_{g}"], i))
@@ -447,14 +452,17 @@ def main(argv=None):
         print(f"{len(panos)} crops of {n_pano} panoramas ({int(has.sum())} with a light), "
               f"{k}-fold cross-validation over panoramas"
               + (f", {len(held)} held out (--val-panos {args.val_panos})" if held else ""))
+        ind = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
         print(f"  {'lambda':>10}  {'mse dir':>9}  {'mse light':>9}  {'mse amb':>9}  "
-              "angle deg median [q1, q3]")
+              "angle deg median [q1, q3]  indoor median")
         for s in scores:
             print(f"  {s['lambda']:10.4g}  {s['mse_dir']:9.4f}  {s['mse_light']:9.4f}  "
-                  f"{s['mse_ambient']:9.4f}  {s['median_angle_deg']:.1f} "
-                  f"[{s['q1_angle_deg']:.1f}, {s['q3_angle_deg']:.1f}]")
+                  f"{s['mse_ambient']:9.4f}  {s['median_angle_deg']:5.1f} "
+                  f"[{s['q1_angle_deg']:5.1f}, {s['q3_angle_deg']:5.1f}]      "
+                  f"{ind(s['median_angle_deg_indoor'])}")
         print("chosen lambda: " + ", ".join(f"{g} {v:g}" for g, v in chosen.items()) +
-              f"; cross-validated median angle {best_dir['median_angle_deg']:.1f} deg")
+              f"; cross-validated median angle {best_dir['median_angle_deg']:.1f} deg "
+              f"({ind(best_dir['median_angle_deg_indoor'])} on indoor crops)")
         for g in edge:
             print(f"warning: the {g} lambda is at the edge of the grid", file=sys.stderr)
         weights, bias = fit(X, Y, has, chosen)
@@ -466,7 +474,8 @@ def main(argv=None):
                    "sha256 of the name, dealt round-robin", "criterion": "lowest mean squared "
                    "error of each group's outputs", "groups": {g: [OUTPUTS[i] for i in idx]
                                                              for g, idx in GROUPS.items()},
-                   "scores": scores, "median_angle_deg": best_dir["median_angle_deg"]},
+                   "scores": scores, "median_angle_deg": best_dir["median_angle_deg"],
+                   "median_angle_deg_indoor": best_dir["median_angle_deg_indoor"]},
             "fit": {"tool": "tools/train/fit_ridge.py", "dataset": os.path.abspath(args.data),
                     "index_sha256": digest, "dataset_config": cfg, "val_panos": args.val_panos,
                     "held_out": held, "panoramas": sorted(set(panos)), "n_crops": len(panos),
