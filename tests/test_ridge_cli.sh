@@ -5,7 +5,8 @@
 # same bytes; it refuses a dataset row outside train/ and too few panoramas; `parlight eval
 # --ridge` then reports (d) in the JSON (methods, per-crop scores, its estimate) and the text
 # table, its estimates equal fit_ridge.py --predict's on the same crops (`parlight crop --batch`),
-# the file beside --model is found by default, --ridge none and a broken file are handled.
+# the file beside --model is found by default, --ridge none and a broken file are handled; the
+# shipped models/parlight-ridge.json was fit on train/ panoramas only and loads.
 # Skipped (77) without $PL_SHARED's train panoramas. Model: build/models/seeded-n3.plm.
 set -u
 cd "$(dirname "$0")/.."
@@ -123,6 +124,24 @@ grep -q "(d) ridge" "$T/out" && fail "--ridge none still prints (d)"
 expect 0 "not scored: no parlight-ridge.json" -- "$P" eval --model "$M" --hdr "$T/pano" --crops 1 --size 16 --json
 "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(0 if d["ridge"] is None and "ridge" not in d["methods"] else 1)' "$T/out" ||
     fail "unscored (d) in the JSON"
+# the shipped file: fit on train/ panoramas only, none held out, and the C loader takes it
+R=models/parlight-ridge.json
+if [ -f "$R" ]; then
+    "$PY" - "$R" <<'PY' || fail "$R: not a train/-only fit"
+import json, sys
+d = json.load(open(sys.argv[1]))
+f = d["fit"]
+assert f["tool"] == "tools/train/fit_ridge.py" and f["val_panos"] == 0 and f["held_out"] == [], f["tool"]
+assert f["panoramas"] and all(p.startswith("train/") for p in f["panoramas"]), "panoramas"
+assert f["n_crops"] >= len(f["panoramas"]), "n_crops"
+print(f"ok   {sys.argv[1]}: {f['n_crops']} crops of {len(f['panoramas'])} train/ panoramas, "
+      f"lambda {d['lambda']}, CV median angle {d['cv']['median_angle_deg']:.1f}")
+PY
+    expect 0 "" -- "$P" eval --model "$M" --hdr "$T/pano" --crops 1 --size 16 --ridge "$R"
+    grep -qE "^  \(d\) ridge +[0-9]" "$T/out" || fail "$R: no (d) row"
+else
+    fail "$R is not in the repository"
+fi
 # broken files: exit 1 naming the file and the problem
 echo '{"format":"parlight-ridge","version":1}' >"$T/broken.json"
 expect 1 "broken.json: missing field features" -- "$P" eval --model "$M" --hdr "$T/pano" --crops 1 --ridge "$T/broken.json"
