@@ -54,8 +54,8 @@ typedef enum pl_eval_method {
 #define PL_EVAL_CELL_DIV 8
 #define PL_EVAL_BRIGHT_SR 0.1
 
-/* Short key ("model", "ambient", "brightest", "gt_lights", "ridge") and a label for tables; NULL / "?"
- * outside 0..PL_EVAL_N_METHODS-1. */
+/* Short key ("model", "ambient", "brightest", "gt_lights", "ridge") and a label for tables;
+ * NULL / "?" outside 0..PL_EVAL_N_METHODS-1. */
 const char *pl_eval_method_key(int m);
 const char *pl_eval_method_label(int m);
 

@@ -9,9 +9,16 @@
 #include "port/json.h"
 #include "port/util.h"
 
-static const char *const output_names[PL_RIDGE_N_OUT] = {
-    "dir_x",     "dir_y",     "dir_z",     "log_rgb_r",     "log_rgb_g",
-    "log_rgb_b", "log_solid_angle_sr",     "log_ambient_r", "log_ambient_g", "log_ambient_b"};
+static const char *const output_names[PL_RIDGE_N_OUT] = {"dir_x",
+                                                         "dir_y",
+                                                         "dir_z",
+                                                         "log_rgb_r",
+                                                         "log_rgb_g",
+                                                         "log_rgb_b",
+                                                         "log_solid_angle_sr",
+                                                         "log_ambient_r",
+                                                         "log_ambient_g",
+                                                         "log_ambient_b"};
 
 /* The member `key` of object o, which must have type t; `what` names o in messages. */
 static int member(const char *name, const pl_json_value *o, const char *what, const char *key,
@@ -104,8 +111,9 @@ static int from_doc(const char *name, const pl_json_value *root, pl_ridge *r)
         return rc;
     for (int k = 0; k < 2; k++)
         if (!(grid[k] == floor(grid[k]) && grid[k] >= 1 && grid[k] <= PL_RIDGE_MAX_GRID))
-            return pl_error(PL_E_FORMAT, "%s: field features.grid[%d]: expected an integer in "
-                                         "1..%d, found %g",
+            return pl_error(PL_E_FORMAT,
+                            "%s: field features.grid[%d]: expected an integer in "
+                            "1..%d, found %g",
                             name, k, PL_RIDGE_MAX_GRID, grid[k]);
     r->cols = (int)grid[0];
     r->rows = (int)grid[1];

@@ -5,7 +5,8 @@
  * Features (definition PL_RIDGE_DEFINITION; fit_ridge.py computes the same): the 8-bit RGB image
  * (W x H) linearised per channel as (v / 255)^gamma with the crop's gamma, averaged over a grid
  * of cols x rows cells (16 x 12 in the shipped file; the file says), cell (i, j) being the pixels
- *     x in [floor(i W / cols), floor((i + 1) W / cols)),  y in [floor(j H / rows), floor((j + 1) H / rows))
+ *     x in [floor(i W / cols), floor((i + 1) W / cols)),
+ *     y in [floor(j H / rows), floor((j + 1) H / rows))
  * (so any W >= cols, H >= rows works: 640 x 480 eval crops and 256 x 192 training crops alike;
  * a non-4:3 image is cut the same way, stretched), then log(max(mean, floor)) with the file's
  * floor (1e-4). Order: row j (top first), column i (left first), channel R, G, B:

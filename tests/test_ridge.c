@@ -161,8 +161,8 @@ static void test_golden(void)
  * NULL. */
 static void make_model(char *buf, size_t cap, const char *key, const char *value)
 {
-    static const char *const keys[] = {"format", "version", "features", "outputs", "bias",
-                                       "weights", "lambda"};
+    static const char *const keys[] = {"format", "version", "features", "outputs",
+                                       "bias",   "weights", "lambda"};
     static const char *const vals[] = {
         "\"parlight-ridge\"",
         "1",
@@ -247,10 +247,16 @@ static void test_loader(void)
         pl_ridge_free(r);
     }
 
-    static const char *const required[] = {"format",   "version",           "features",
-                                           "outputs",  "bias",              "weights",
-                                           "features.definition", "features.grid",
-                                           "features.floor",      "features.n"};
+    static const char *const required[] = {"format",
+                                           "version",
+                                           "features",
+                                           "outputs",
+                                           "bias",
+                                           "weights",
+                                           "features.definition",
+                                           "features.grid",
+                                           "features.floor",
+                                           "features.n"};
     for (size_t i = 0; i < sizeof required / sizeof *required; i++) {
         const char *dot = strchr(required[i], '.');
         expect_bad(required[i], NULL, dot ? dot + 1 : required[i]);
