@@ -311,6 +311,25 @@ static void test_loader(void)
         pl_ridge_free(r);
     }
     CHECK(accepted == 0, "%d truncated files accepted", accepted);
+    /* random byte changes: each either refused or a model whose numbers are all finite */
+    int bad = 0;
+    for (int t = 0; t < 3000; t++) {
+        char m[4096];
+        size_t n = strlen(text);
+        memcpy(m, text, n + 1);
+        for (int k = rint_in(1, 3); k > 0; k--)
+            m[rnd() % n] = "0123456789.,:-+eE[]{}\"x \\"[rnd() % 25];
+        r = NULL;
+        if (pl_ridge_parse(m, n, "fuzz.json", &r) == 0) {
+            for (int i = 0; i < PL_RIDGE_N_OUT * r->n_features; i++)
+                bad += !isfinite(r->weights[i]);
+            for (int i = 0; i < PL_RIDGE_N_OUT; i++)
+                bad += !isfinite(r->bias[i]);
+            bad += r->n_features != 3 * r->cols * r->rows;
+        }
+        pl_ridge_free(r);
+    }
+    CHECK(bad == 0, "fuzzed files accepted with %d bad values", bad);
     CHECK(pl_ridge_load("tests/data/ridge/no-such-file.json", &r) == PL_E_IO &&
               strstr(pl_last_error(), "no-such-file.json"),
           "missing file: %s", pl_last_error());
