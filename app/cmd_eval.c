@@ -1,5 +1,5 @@
 /* parlight eval: a model's estimates on the paper's crops of a folder of HDR panoramas, scored
- * against the ground truth with three baselines (light/eval.h, docs/EVAL.md). */
+ * against the ground truth with four baselines (light/eval.h, docs/EVAL.md). */
 #include <dirent.h>
 #include <errno.h>
 #include <getopt.h>
@@ -15,6 +15,7 @@
 #include "light/eval.h"
 #include "light/extract.h"
 #include "light/lights_json.h"
+#include "light/ridge.h"
 #include "parlight.h"
 #include "port/hdr_io.h"
 #include "port/threads.h"
@@ -25,14 +26,17 @@ static void usage(FILE *f)
     fprintf(f,
             "usage: parlight eval --model M.plm --hdr DIR [--crops N] [--size S] [--threads N]\n"
             "                     [--json] [--per-pano] [--anchor off|W,B[,GAMMA]]\n"
+            "                     [--ridge FILE|none]\n"
             "\n"
             "Scores a model on the paper's crops of every HDR panorama (.exr/.hdr, 2:1) in DIR:\n"
             "N crops per panorama, yaws 360/N apart at pitch 0, fov 60, 640x480, auto exposure,\n"
             "gamma 2.2 (what `parlight crop --batch N` writes). Per crop, the model's estimate\n"
-            "from the crop's 8-bit pixels and three baselines, (a) the crop's mean linear colour\n"
+            "from the crop's 8-bit pixels and four baselines, (a) the crop's mean linear colour\n"
             "as ambient, (b) one light toward the crop's brightest cell plus ambient, (c) the\n"
-            "extracted ground-truth lights, are each compared with the truth, the diffuse sphere\n"
-            "lit by the panorama in the crop's camera frame on the crop's scale:\n"
+            "extracted ground-truth lights, (d) a ridge regression from the crop's 16x12 log\n"
+            "pixels to one light and ambient, fit on the training crops (--ridge), are each\n"
+            "compared with the truth, the diffuse sphere lit by the panorama in the crop's\n"
+            "camera frame on the crop's scale:\n"
             "  rmse, si_rmse  render RMSE and scale-invariant RMSE (diffuse sphere, S px)\n"
             "  angle          degrees between the primary light and the ground truth's\n"
             "  scale EV       stops the render is too dark by (log2 of si_rmse's scale)\n"
@@ -50,6 +54,9 @@ static void usage(FILE *f)
             "  --anchor A      the model's intensity anchor replaced (as in parlight estimate);\n"
             "                  off scores the network's own intensity, what\n"
             "                  tools/train/fit_anchor.py fits an anchor to\n"
+            "  --ridge FILE    baseline (d)'s model (tools/train/fit_ridge.py); default: the\n"
+            "                  --model file's folder's parlight-ridge.json when it exists;\n"
+            "                  none: (d) not scored (stderr says when it is not)\n"
             "  -h, --help      this text\n");
 }
 
@@ -58,7 +65,7 @@ typedef struct crop_job {
     pl_crop_params p;
     pl_image_u8 ldr;
     double k;
-    pl_lighting pred, gt;
+    pl_lighting pred, gt, ridge;
     double frame_ev; /* log2(frame's mean luminance / the estimate's), pl_anchor_ratio_ev */
     pl_eval_scores s[PL_EVAL_N_METHODS];
     int rc;
@@ -68,6 +75,7 @@ typedef struct crop_job {
 typedef struct pano_ctx {
     const pl_image_f32 *pano;
     const pl_lighting *lights;
+    const pl_ridge *ridge; /* NULL: (d) not scored */
     crop_job *jobs;
     int size;
 } pano_ctx;
@@ -94,8 +102,14 @@ static void score_crops(void *vctx, int begin, int end)
     for (int i = begin; i < end; i++) {
         crop_job *j = &c->jobs[i];
         if (j->rc < 0) continue;
-        int rc =
-            pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred, c->size, j->s, &j->gt);
+        int rc = 0;
+        if (c->ridge && (rc = pl_ridge_predict(c->ridge, &j->ldr, j->p.gamma, &j->ridge)) < 0) {
+            pl_error_prefix(rc, "eval: ridge");
+            record_error(j, rc);
+            continue;
+        }
+        rc = pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred,
+                          c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt);
         if (rc < 0) record_error(j, rc);
     }
 }
@@ -107,6 +121,7 @@ typedef struct pano_row {
     double *yaw, *k;        /* [crops] */
     double *frame_ev;       /* [crops] */
     pl_lighting *pred, *gt; /* [crops]: the model's estimates, the ground truths */
+    pl_lighting *ridge;     /* [crops]: (d)'s estimates (zeros when not scored) */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
 } pano_row;
 
@@ -120,6 +135,7 @@ static void free_row(pano_row *r)
     free(r->s);
     free(r->pred);
     free(r->gt);
+    free(r->ridge);
     memset(r, 0, sizeof *r);
 }
 
@@ -128,8 +144,8 @@ static void free_row(pano_row *r)
  * SKIP_FILE when the file is not a usable panorama, or a negative status on any other failure
  * (the message in pl_last_error). ms[0..2] accumulate the wall time of the three phases. */
 static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model *model,
-                         const pl_model_info *mi, pl_pool *pool, int crops, int size,
-                         crop_job *jobs, pano_row *r, double ms[3])
+                         const pl_model_info *mi, const pl_ridge *ridge, pl_pool *pool, int crops,
+                         int size, crop_job *jobs, pano_row *r, double ms[3])
 {
     pl_image_f32 pano = {0, 0, NULL};
     pl_lighting lights;
@@ -143,7 +159,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         pl_crop_default_params(&jobs[i].p); /* 640x480, fov 60, pitch 0, ev 0, gamma 2.2 */
         jobs[i].p.yaw_deg = 360.0 * i / crops;
     }
-    pano_ctx ctx = {&pano, &lights, jobs, size};
+    pano_ctx ctx = {&pano, &lights, ridge, jobs, size};
     const int64_t t0 = pl_now_ns();
     pl_pool_for(pool, crops, make_crops, &ctx);
     const int64_t t1 = pl_now_ns();
@@ -188,7 +204,8 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     r->s = malloc((size_t)crops * PL_EVAL_N_METHODS * sizeof *r->s);
     r->pred = malloc((size_t)crops * sizeof *r->pred);
     r->gt = malloc((size_t)crops * sizeof *r->gt);
-    if (!r->yaw || !r->k || !r->frame_ev || !r->s || !r->pred || !r->gt) {
+    r->ridge = malloc((size_t)crops * sizeof *r->ridge);
+    if (!r->yaw || !r->k || !r->frame_ev || !r->s || !r->pred || !r->gt || !r->ridge) {
         free_row(r);
         return pl_error(PL_E_NOMEM, "out of memory");
     }
@@ -198,6 +215,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->frame_ev[i] = jobs[i].frame_ev;
         r->pred[i] = jobs[i].pred;
         r->gt[i] = jobs[i].gt;
+        r->ridge[i] = jobs[i].ridge;
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
     }
     return 0;
@@ -294,11 +312,12 @@ static void put_stats_json(FILE *f, const char *key, const pl_eval_stats *st, in
 static const char *const metric_keys[N_METRICS] = {"rmse", "si_rmse", "angle_deg", "scale_ev"};
 
 /* {"model":{"rmse":{...},"si_rmse":{...},"angle_deg":{...},"scale_ev":{...}},...} over n
- * crops. */
-static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, double *buf)
+ * crops; "ridge" only when (d) is scored. */
+static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, int have_ridge, double *buf)
 {
     fputc('{', f);
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        if (m == PL_EVAL_RIDGE && !have_ridge) continue;
         fprintf(f, "%s\"%s\":{", m ? "," : "", pl_eval_method_key(m));
         for (int q = 0; q < N_METRICS; q++) {
             pl_eval_stats st;
@@ -314,12 +333,14 @@ static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, double *buf
 }
 
 /* One crop's JSON object: yaw, exposure scale, the scores of every method, the model's
- * estimate and the ground truth (lights JSON members, light/lights_json.h). */
-static int put_crop_json(FILE *f, const pano_row *pr, int i)
+ * estimate, the ground truth and (d)'s estimate when scored (lights JSON members,
+ * light/lights_json.h). */
+static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
 {
     fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g,\"frame_ev\":", pr->yaw[i], pr->k[i]);
     put_num(f, pr->frame_ev[i]);
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        if (m == PL_EVAL_RIDGE && !have_ridge) continue;
         const pl_eval_scores *x = &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
         fprintf(f, ",\"%s\":{\"rmse\":", pl_eval_method_key(m));
         put_num(f, x->rmse);
@@ -334,9 +355,9 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i)
         fputc('}', f);
     }
     char lj[PL_MAX_LIGHTS * 256 + 128];
-    const pl_lighting *L[2] = {&pr->pred[i], &pr->gt[i]};
-    const char *key[2] = {"estimate", "ground_truth"};
-    for (int t = 0; t < 2; t++) {
+    const pl_lighting *L[3] = {&pr->pred[i], &pr->gt[i], &pr->ridge[i]};
+    const char *key[3] = {"estimate", "ground_truth", "ridge_estimate"};
+    for (int t = 0; t < (have_ridge ? 3 : 2); t++) {
         if (pl_lighting_format_json(L[t], lj, sizeof lj) < 0)
             return pl_error(PL_E_INTERNAL, "eval: %s JSON longer than %zu bytes", key[t],
                             sizeof lj);
@@ -356,11 +377,12 @@ static void put_cell(FILE *f, const pl_eval_stats *st, int width)
     fprintf(f, "  %-*s", width, b);
 }
 
-static int put_table(FILE *f, const pl_eval_scores *s, int n, double *buf)
+static int put_table(FILE *f, const pl_eval_scores *s, int n, int have_ridge, double *buf)
 {
     fprintf(f, "  %-24s  %-28s  %-28s  %-28s  %s\n", "method", "rmse median [q1, q3]",
             "si-rmse median [q1, q3]", "angle deg median [q1, q3]", "scale EV median [q1, q3]");
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        if (m == PL_EVAL_RIDGE && !have_ridge) continue;
         fprintf(f, "  %-24s", pl_eval_method_label(m));
         for (int q = 0; q < N_METRICS; q++) {
             pl_eval_stats st;
@@ -383,9 +405,10 @@ int cmd_eval(int argc, char **argv)
                                          {"json", no_argument, 0, 'j'},
                                          {"per-pano", no_argument, 0, 'p'},
                                          {"anchor", required_argument, 0, 'A'},
+                                         {"ridge", required_argument, 0, 'R'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
-    const char *model_path = NULL, *dir = NULL;
+    const char *model_path = NULL, *dir = NULL, *ridge_arg = NULL;
     int crops = 8, size = 64, threads = 1, json = 0, per_pano = 0, have_anchor = 0, c;
     double anchor[3];
     optind = 1;
@@ -417,6 +440,9 @@ int cmd_eval(int argc, char **argv)
             if (cli_anchor("eval", optarg, anchor) < 0) return 2;
             have_anchor = 1;
             break;
+        case 'R':
+            ridge_arg = optarg;
+            break;
         case 'h':
             usage(stdout);
             return 0;
@@ -440,6 +466,8 @@ int cmd_eval(int argc, char **argv)
     skipped_file *skipped = NULL;
     crop_job *jobs = NULL;
     pl_model *model = NULL;
+    pl_ridge *ridge = NULL;
+    char ridge_path[4096] = "";
     pl_pool *pool = NULL;
     double *buf = NULL;
     pl_model_info mi;
@@ -454,6 +482,25 @@ int cmd_eval(int argc, char **argv)
         fprintf(stderr, "parlight eval: %s\n", pl_last_error());
         goto out;
     }
+    if (ridge_arg && strcmp(ridge_arg, "none") != 0) {
+        snprintf(ridge_path, sizeof ridge_path, "%s", ridge_arg);
+    } else if (!ridge_arg) { /* beside the model, when it is there */
+        const char *slash = strrchr(model_path, '/');
+        int len = slash ? (int)(slash - model_path) + 1 : 0;
+        struct stat st;
+        if ((size_t)snprintf(ridge_path, sizeof ridge_path, "%.*sparlight-ridge.json", len,
+                             model_path) >= sizeof ridge_path ||
+            stat(ridge_path, &st) != 0)
+            ridge_path[0] = '\0';
+    }
+    if (ridge_path[0] && pl_ridge_load(ridge_path, &ridge) < 0) {
+        fprintf(stderr, "parlight eval: (d) ridge model: %s\n", pl_last_error());
+        goto out;
+    }
+    if (!ridge)
+        fprintf(stderr, "parlight eval: baseline (d) ridge not scored: %s\n",
+                ridge_arg ? "--ridge none"
+                          : "no parlight-ridge.json beside the model and no --ridge FILE");
     rows = calloc((size_t)n_files, sizeof *rows);
     skipped = calloc((size_t)n_files, sizeof *skipped);
     jobs = calloc((size_t)crops, sizeof *jobs);
@@ -468,7 +515,7 @@ int cmd_eval(int argc, char **argv)
         char path[4096];
         snprintf(path, sizeof path, "%s/%s", dir, files[f]);
         int st =
-            eval_panorama(path, &ep, model, &mi, pool, crops, size, jobs, &rows[n_rows], ms);
+            eval_panorama(path, &ep, model, &mi, ridge, pool, crops, size, jobs, &rows[n_rows], ms);
         if (st == SKIP_FILE) {
             fprintf(stderr, "parlight eval: skipping %s: %s\n", files[f], pl_last_error());
             skipped[n_skipped].file = files[f];
@@ -523,8 +570,16 @@ int cmd_eval(int argc, char **argv)
             pl_app_put_json_string(stdout, skipped[i].why ? skipped[i].why : "");
             printf("}");
         }
-        printf("],\"methods\":");
-        rc = put_methods_json(stdout, all, n_crops, buf);
+        printf("],\"ridge\":");
+        if (ridge) {
+            printf("{\"file\":");
+            pl_app_put_json_string(stdout, ridge_path);
+            printf(",\"grid\":[%d,%d]}", ridge->cols, ridge->rows);
+        } else {
+            printf("null");
+        }
+        printf(",\"methods\":");
+        rc = put_methods_json(stdout, all, n_crops, ridge != NULL, buf);
         printf(",\"panoramas\":[");
         for (int r = 0; r < n_rows && rc == 0; r++) {
             const pano_row *pr = &rows[r];
@@ -532,11 +587,11 @@ int cmd_eval(int argc, char **argv)
             pl_app_put_json_string(stdout, pr->file);
             printf(",\"width\":%d,\"height\":%d,\"gt_lights\":%d,\"methods\":", pr->width,
                    pr->height, pr->n_gt_lights);
-            rc = put_methods_json(stdout, pr->s, crops, buf);
+            rc = put_methods_json(stdout, pr->s, crops, ridge != NULL, buf);
             printf(",\"crops\":[");
             for (int i = 0; i < crops && rc == 0; i++) {
                 if (i) putchar(',');
-                rc = put_crop_json(stdout, pr, i);
+                rc = put_crop_json(stdout, pr, i, ridge != NULL);
             }
             printf("]}");
         }
@@ -550,11 +605,12 @@ int cmd_eval(int argc, char **argv)
                "apart, pitch 0, fov 60, 640x480, gamma 2.2), diffuse sphere %d px\n",
                model_path, mi.precision, mi.n_lights, an, dir, n_rows, n_rows == 1 ? "" : "s",
                crops, crops, size);
-        rc = put_table(stdout, all, n_crops, buf);
+        if (ridge) printf("  (d) ridge: %s\n", ridge_path);
+        rc = put_table(stdout, all, n_crops, ridge != NULL, buf);
         for (int r = 0; r < n_rows && per_pano && rc == 0; r++) {
             printf("\n%s (%dx%d, %d ground-truth light%s)\n", rows[r].file, rows[r].width,
                    rows[r].height, rows[r].n_gt_lights, rows[r].n_gt_lights == 1 ? "" : "s");
-            rc = put_table(stdout, rows[r].s, crops, buf);
+            rc = put_table(stdout, rows[r].s, crops, ridge != NULL, buf);
         }
     }
     free(all);
@@ -594,5 +650,6 @@ out:
     free(buf);
     pl_pool_destroy(pool);
     pl_model_free(model);
+    pl_ridge_free(ridge);
     return ret;
 }

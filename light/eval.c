@@ -13,9 +13,9 @@
 #define DEG (M_PI / 180.0)
 
 static const char *const method_keys[PL_EVAL_N_METHODS] = {"model", "ambient", "brightest",
-                                                           "gt_lights"};
+                                                           "gt_lights", "ridge"};
 static const char *const method_labels[PL_EVAL_N_METHODS] = {
-    "model", "(a) mean ambient", "(b) brightest + ambient", "(c) gt lights"};
+    "model", "(a) mean ambient", "(b) brightest + ambient", "(c) gt lights", "(d) ridge"};
 
 const char *pl_eval_method_key(int m)
 {
@@ -286,8 +286,9 @@ int pl_eval_score(const pl_lighting *L, const pl_image_f32 *truth, const pl_ligh
 }
 
 int pl_eval_crop(const pl_image_f32 *pano, const pl_lighting *pano_lights, const pl_crop_params *p,
-                 const pl_image_u8 *ldr, double k, const pl_lighting *pred, int size,
-                 pl_eval_scores out[PL_EVAL_N_METHODS], pl_lighting *gt_out)
+                 const pl_image_u8 *ldr, double k, const pl_lighting *pred,
+                 const pl_lighting *ridge_pred, int size, pl_eval_scores out[PL_EVAL_N_METHODS],
+                 pl_lighting *gt_out)
 {
     if (!pano || !pano_lights || !p || !ldr || !pred || !out)
         return pl_error(PL_E_ARG, "eval: NULL argument");
@@ -297,13 +298,20 @@ int pl_eval_crop(const pl_image_f32 *pano, const pl_lighting *pano_lights, const
     if (rc < 0) return rc;
     L[PL_EVAL_MODEL] = *pred;
     L[PL_EVAL_GT_LIGHTS] = gt;
+    if (ridge_pred) L[PL_EVAL_RIDGE] = *ridge_pred;
     if ((rc = pl_eval_baseline_ambient(ldr, p->gamma, &L[PL_EVAL_AMBIENT])) < 0 ||
         (rc = pl_eval_baseline_brightest(ldr, p, &L[PL_EVAL_BRIGHTEST])) < 0 ||
         (rc = pl_eval_truth_render(pano, p, k, size, &truth)) < 0)
         return rc;
-    for (int m = 0; m < PL_EVAL_N_METHODS && rc == 0; m++)
+    for (int m = 0; m < PL_EVAL_N_METHODS && rc == 0; m++) {
+        if (m == PL_EVAL_RIDGE && !ridge_pred) {
+            out[m].rmse = out[m].si_rmse = out[m].scale_ev = out[m].render_rms = NAN;
+            out[m].angle_deg = NAN;
+            continue;
+        }
         if ((rc = pl_eval_score(&L[m], &truth, &gt, &out[m])) < 0)
             pl_error_prefix(rc, "eval: %s", pl_eval_method_key(m));
+    }
     pl_image_f32_free(&truth);
     if (rc == 0 && gt_out) *gt_out = gt;
     return rc;

@@ -1,4 +1,4 @@
-/* Evaluation of lighting estimates on crops of HDR panoramas, against the ground truth and three
+/* Evaluation of lighting estimates on crops of HDR panoramas, against the ground truth and four
  * baselines: the per-crop maths of `parlight eval` (every rule in docs/EVAL.md).
  *
  * A crop is the paper's: light/crop.h's pinhole at the panorama's centre, exposed by its scale k,
@@ -28,6 +28,9 @@
  *   BRIGHTEST  (b) one light toward the crop's brightest cell plus the ambient of the rest
  *   GT_LIGHTS  (c) the extracted ground-truth lights in the crop's frame (pl_crop_lighting): the
  *              parametric representation's ceiling
+ *   RIDGE      (d) a linear model of the crop's coarse log pixels fit on the training crops
+ *              (light/ridge.h; given by the caller, pl_ridge_predict of the crop): what a few
+ *              thousand learned parameters get. Optional: without a model its scores are NaN.
  * Linear colour of an 8-bit value v: (v / 255)^gamma with the crop's gamma, the inverse of the
  * response; clipped (saturated) pixels stay at 1, so the baselines see only what the camera saw. */
 #ifndef PL_LIGHT_EVAL_H
@@ -42,6 +45,7 @@ typedef enum pl_eval_method {
     PL_EVAL_AMBIENT,
     PL_EVAL_BRIGHTEST,
     PL_EVAL_GT_LIGHTS,
+    PL_EVAL_RIDGE,
     PL_EVAL_N_METHODS
 } pl_eval_method;
 
@@ -50,8 +54,8 @@ typedef enum pl_eval_method {
 #define PL_EVAL_CELL_DIV 8
 #define PL_EVAL_BRIGHT_SR 0.1
 
-/* Short key ("model", "ambient", "brightest", "gt_lights") and a label for tables; NULL / "?"
- * outside 0..PL_EVAL_N_METHODS-1. */
+/* Short key ("model", "ambient", "brightest", "gt_lights", "ridge") and a label for tables;
+ * NULL / "?" outside 0..PL_EVAL_N_METHODS-1. */
 const char *pl_eval_method_key(int m);
 const char *pl_eval_method_label(int m);
 
@@ -113,13 +117,15 @@ int pl_eval_score(const pl_lighting *L, const pl_image_f32 *truth, const pl_ligh
 
 /* Everything for one crop: the truth render of pano at size, the baselines from ldr, the
  * ground-truth lights pano_lights rotated and scaled by k (pl_crop_lighting), and the scores of
- * the four methods, out[PL_EVAL_MODEL] for `pred`. pano_lights in the panorama's frame (as
+ * the methods, out[PL_EVAL_MODEL] for `pred`, out[PL_EVAL_RIDGE] for `ridge_pred` (all NaN when
+ * it is NULL: (d) not scored). pano_lights in the panorama's frame (as
  * pl_extract_lights gives them), ldr and k from pl_eval_make_crop(pano, p). Reentrant: crops
  * can be scored on several threads at once. gt_out (may be NULL) receives the crop's ground
  * truth. */
 int pl_eval_crop(const pl_image_f32 *pano, const pl_lighting *pano_lights, const pl_crop_params *p,
-                 const pl_image_u8 *ldr, double k, const pl_lighting *pred, int size,
-                 pl_eval_scores out[PL_EVAL_N_METHODS], pl_lighting *gt_out);
+                 const pl_image_u8 *ldr, double k, const pl_lighting *pred,
+                 const pl_lighting *ridge_pred, int size, pl_eval_scores out[PL_EVAL_N_METHODS],
+                 pl_lighting *gt_out);
 
 /* Median and quartiles of the finite values among v[0..n) (NaN are left out): linear
  * interpolation between order statistics at positions q (n' - 1), q = 0.25, 0.5, 0.75 (numpy's

@@ -6,8 +6,8 @@
 # reported and left out; a rerun resumes and changes nothing) -> distill.py (1 epoch) ->
 # train.py steps 1 and 2 with the dense supervision (--w-map, --sphere-truth map), --stream ->
 # the export (C agrees with PyTorch) -> the intensity anchor fitted on `parlight eval --anchor
-# off` of a held-out panorama -> parlight quantize (int8) -> `parlight eval --json` of the float
-# and int8 models. Also: make_dataset.py refuses the shared eval/ folder, and train.py
+# off` of a held-out panorama -> parlight quantize (int8) -> the ridge baseline (d) fitted on the
+# crops (fit_ridge.py) -> `parlight eval --json` of the float and int8 models with (d) beside. Also: make_dataset.py refuses the shared eval/ folder, and train.py
 # --device cuda is refused with a reason where there is no CUDA device.
 # Needs ../shared (panoramas and the MobileNetV2 teacher). ~3 minutes on 2 cores.
 # Env: BUILD, PL_SHARED, PL_TEST_TMP (set by tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
@@ -94,15 +94,18 @@ mkdir -p "$TMP/calib"
 rm -f "$TMP"/calib/*.json
 "$BUILD/parlight" quantize --model "$TMP/ma.plm" --calib "$TMP/calib" --out "$TMP/m8.plm" \
     >"$TMP/q.log" 2>&1 || fail "parlight quantize: $(cat "$TMP/q.log")"
+"$PY" tools/train/fit_ridge.py --data "$TMP/data" --val-panos 1 --out "$TMP/ridge.json" \
+    >"$TMP/r.log" 2>&1 || fail "fit_ridge.py on a --panos dataset: $(cat "$TMP/r.log")"
 for m in ma m8; do
-    "$BUILD/parlight" eval --model "$TMP/$m.plm" --hdr "$V" --crops 2 --json >"$TMP/$m.json" ||
-        fail "parlight eval $m"
+    "$BUILD/parlight" eval --model "$TMP/$m.plm" --hdr "$V" --crops 2 --json \
+        --ridge "$TMP/ridge.json" >"$TMP/$m.json" || fail "parlight eval $m"
     "$PY" - "$TMP/$m.json" <<'EOF' || fail "eval JSON of $m"
 import json, math, sys
 d = json.load(open(sys.argv[1]))
 assert d["n_panoramas"] == 1, d["n_panoramas"]
 s = json.dumps(d)
 assert '"model"' in s, "no model scores"
+assert d["methods"]["ridge"]["angle_deg"]["n"] == 2, "no (d) ridge scores"
 EOF
 done
 echo "anchor, int8 and parlight eval of the trained model: ok"

@@ -193,6 +193,28 @@ class CropImages:
         return torch.from_numpy(np.stack(list(self.pool.map(self.decode, ids))))
 
 
+def held_out_panoramas(rows, val_panos):
+    """The set of panoramas --val-panos holds out, from index.tsv rows (png, json, panorama,
+    scene): chosen by name hash, half of them indoor or indoor-semi, half outdoor (when both
+    exist), among the shared train/ and make_dataset.py --panos panoramas. Only real panoramas
+    are held out: synthetic rooms (synth/, make_dataset.py --synthetic) always train, so adding
+    them leaves the validation set as it was. Used by
+    load_dataset and by tools/train/fit_ridge.py (the same held-out rooms for both)."""
+    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith(("train/", "panos/"))},
+                   key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
+    if val_panos and val_panos >= len(panos):
+        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} real panoramas in the "
+                         "data (synthetic rooms are never held out)")
+    indoor = [p for p, s in panos if s != "outdoor"]
+    outdoor = [p for p, s in panos if s == "outdoor"]
+    k_in = min(len(indoor), (val_panos + 1) // 2)
+    k_out = min(len(outdoor), val_panos - k_in)
+    # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
+    held = set(indoor[:k_in] + outdoor[:k_out])
+    held |= set([p for p, _ in panos if p not in held][:val_panos - len(held)])
+    return held
+
+
 def load_dataset(data, hw, val_panos, limit=0, need_map=False, stream=False):
     """Crops of index.tsv resized to hw (area filter) as CropImages (in memory, or streamed from
     their files with stream), their ground truth padded to MAX_GT lights, and a boolean
@@ -203,20 +225,7 @@ def load_dataset(data, hw, val_panos, limit=0, need_map=False, stream=False):
     rows = read_index(data, limit)
     if not rows:
         raise ValueError(f"{index}: no crops")
-    # only real panoramas are held out: synthetic rooms (synth/, make_dataset.py --synthetic)
-    # always train, so adding them leaves the validation set as it was
-    panos = sorted({(r[2], r[3]) for r in rows if r[2].startswith(("train/", "panos/"))},
-                   key=lambda p: hashlib.sha256(p[0].encode()).hexdigest())
-    if val_panos and val_panos >= len(panos):
-        raise ValueError(f"--val-panos {val_panos}: only {len(panos)} real panoramas in the "
-                         "data (synthetic rooms are never held out)")
-    # half the held-out panoramas indoor (or indoor-semi), half outdoor, when both exist
-    indoor = [p for p, s in panos if s != "outdoor"]
-    outdoor = [p for p, s in panos if s == "outdoor"]
-    k_in = min(len(indoor), (val_panos + 1) // 2)
-    k_out = min(len(outdoor), val_panos - k_in)
-    held = set(indoor[:k_in] + outdoor[:k_out])
-    held |= set([p for p, _ in panos if p not in held][:val_panos - len(held)])
+    held = held_out_panoramas(rows, val_panos)
     m = len(rows)
     gt = {"dir": torch.zeros(m, MAX_GT, 3), "size": torch.ones(m, MAX_GT),
           "rgb": torch.zeros(m, MAX_GT, 3), "dist": torch.ones(m, MAX_GT),
