@@ -7,9 +7,9 @@
 #   make clean        remove build/
 #   make BOARD=name   build for boards/name.mk (default: host)
 #
-# Everything is built out of tree under $(BUILD). Sources are found by directory, so a new
-# file in model/, kernels/, quant/, light/ or port/ joins the library without editing this file;
-# tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
+# Everything is built out of tree under $(BUILD). Sources are found by directory, so a new file
+# in core/, model/, kernels/, quant/, light/ or port/ joins the library without editing this
+# file; tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
 
 .DEFAULT_GOAL := all
 BOARD ?= host
@@ -94,7 +94,7 @@ CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
             $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS)
 LDLIBS   += $(CORE_LIBS) -lstdc++ -lm -pthread
 
-LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
+LIB_C   := $(sort $(wildcard core/*.c model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
 
 # SIMD kernels: kernels/x86/ joins x86-64 builds, kernels/arm/ AArch64 builds. A file's ISA
 # flags come from its name (nn_conv1x1_s8__avx512vnni.c): the build stays portable and

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <cpuid.h>

@@ -38,6 +38,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "core/image.h"
+#include "core/threads.h"
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
 #include "light/light.h"
@@ -46,9 +49,7 @@
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/profile.h"
-#include "port/image.h"
-#include "port/threads.h"
-#include "port/util.h"
+#include "model/resize.h"
 
 struct dense_layer {
     int cin;

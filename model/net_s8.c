@@ -25,13 +25,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/image.h"
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
 #include "model/profile.h"
-#include "port/image.h"
-#include "port/util.h"
+#include "model/resize.h"
 #include "quant/requant.h"
 
 #define STEM_PAD 3

@@ -11,12 +11,12 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/threads.h"
 #include "model/arch.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/profile.h"
 #include "parlight.h"
-#include "port/threads.h"
 
 typedef struct pl_s8 pl_s8;
 

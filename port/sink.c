@@ -14,8 +14,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/sink_internal.h"
-#include "port/util.h"
 
 #define SPEC_HELP "expected stdout, -, udp://HOST:PORT, tcp://HOST:PORT or unix:PATH"
 

@@ -2,7 +2,7 @@
 
 #include <math.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 int pl_quantize_multiplier(double real, int32_t *multiplier, int32_t *shift)
 {

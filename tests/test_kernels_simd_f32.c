@@ -25,9 +25,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
-#include "port/util.h"
 #define CHECK_RNG_SEED 0x2545f4914f6cdd1dULL
 #include "tests/check.h"
 

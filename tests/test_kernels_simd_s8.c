@@ -17,9 +17,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
-#include "port/util.h"
 #include "tests/check.h"
 
 /* int8 values; mode 0: random with a quarter at -128/127, 1: all -128, 2: all 127,

@@ -8,7 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "port/util.h"
+#include "core/util.h"
 #include "quant/requant.h"
 #include "tests/check.h"
 

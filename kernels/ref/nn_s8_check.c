@@ -4,7 +4,7 @@
 
 #include <stdio.h>
 
-#include "port/util.h"
+#include "core/util.h"
 #include "quant/requant.h"
 
 static int check_range(const char *field, long long v, long long lo, long long hi)
