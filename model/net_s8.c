@@ -31,9 +31,9 @@
 #include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
+#include "kernels/requant.h"
 #include "model/profile.h"
 #include "model/resize.h"
-#include "quant/requant.h"
 
 #define STEM_PAD 3
 

@@ -9,7 +9,7 @@
 #include <stdlib.h>
 
 #include "core/util.h"
-#include "quant/requant.h"
+#include "kernels/requant.h"
 #include "tests/check.h"
 
 /* --- Reference, from the definition ---------------------------------------------------------

@@ -5,7 +5,7 @@
 #include <stdio.h>
 
 #include "core/util.h"
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 static int check_range(const char *field, long long v, long long lo, long long hi)
 {

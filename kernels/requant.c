@@ -1,4 +1,4 @@
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 #include <math.h>
 
