@@ -147,8 +147,8 @@ typedef struct pl_kernels_s8 {
 /* Fills every slot with the fastest implementation `isa` includes (kernels/isa.h). */
 void pl_kernels_s8_fill(pl_kernels_s8 *t, pl_isa isa);
 
-/* The slots as (operation, implementation) pairs for `parlight info`: up to `max` entries,
- * returns how many there are. On the reference path the operations are the kernels of
+/* The slots as (operation, implementation) pairs for `parlight info`: up to `max` entries
+ * (op or impl may be NULL), returns how many there are. On the reference path the operations are the kernels of
  * kernels/ref/ the executor calls. */
 int pl_kernels_s8_list(const pl_kernels_s8 *t, const char **op, const char **impl, int max);
 
