@@ -45,6 +45,8 @@
 #include "kernels/ref/nn_ref.h"
 #include "light/light.h"
 #include "model/arch.h"
+#include "model/binder.h"
+#include "model/heads.h"
 #include "model/net_s8.h"
 #include "model/observer.h"
 #include "model/plm.h"
@@ -75,8 +77,7 @@ struct pl_model {
     struct dense_layer layers[MAX_LAYERS];
     struct transition trans[N_BLOCKS - 1];
     const float *n5_scale, *n5_shift, *fc_w, *fc_b;
-    const float *dir_w, *dir_b, *size_w, *size_b, *rgb_w, *rgb_b, *amb_w, *amb_b;
-    const float *d1_w, *d1_b, *d2_w, *d2_b;
+    pl_heads heads; /* model/heads.h: weights in the file, outputs in the arena */
 
     const pl_kernels *kern;
     pl_f32_conv conv0;  /* packed paths */
@@ -88,8 +89,7 @@ struct pl_model {
 
     float *arena;
     size_t arena_floats;
-    float *x_in, *buf_a, *buf_b, *t1, *t2, *z, *h, *out_dir, *out_size, *out_rgb, *out_amb,
-        *dist_in, *dist_h, *out_dist;
+    float *x_in, *buf_a, *buf_b, *t1, *t2, *z, *h;
     int z_len;
     int have_latent;
     pl_pool *pool;
@@ -150,89 +150,49 @@ static int parse_anchor(const pl_plm *f, float anchor[3])
     return rc;
 }
 
-/* Looks up `name`, checks it is f32 with exactly the given dims, counts it as used. */
-static const float *expect(pl_model *m, int *used, int *rc, const char *name, int ndim, int d0,
-                           int d1, int d2, int d3)
-{
-    if (*rc < 0) return NULL;
-    const pl_tensor *t = pl_plm_tensor(&m->file, name);
-    const int want[4] = {d0, d1, d2, d3};
-    if (!t) {
-        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' missing", m->file.path, name);
-        return NULL;
-    }
-    if (t->dtype != PL_DT_F32) {
-        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' is %s, expected f32", m->file.path, name,
-                       pl_dtype_name(t->dtype));
-        return NULL;
-    }
-    int ok = t->ndim == ndim;
-    for (int i = 0; ok && i < ndim; i++) ok = t->dims[i] == (uint32_t)want[i];
-    if (!ok) {
-        char got[64], exp[64];
-        int n = 0, k = 0;
-        for (int i = 0; i < t->ndim; i++)
-            n += snprintf(got + n, sizeof got - (size_t)n, "%s%u", i ? "," : "", t->dims[i]);
-        for (int i = 0; i < ndim; i++)
-            k += snprintf(exp + k, sizeof exp - (size_t)k, "%s%d", i ? "," : "", want[i]);
-        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' has shape [%s], expected [%s]", m->file.path,
-                       name, got, exp);
-        return NULL;
-    }
-    (*used)++;
-    m->n_params += (int64_t)t->count;
-    return t->data;
-}
-
 static int bind_tensors(pl_model *m)
 {
-    int rc = PL_OK, used = 0, N = m->n_lights;
+    pl_binder bd = {.file = &m->file, .missing_note = ""};
+    const int N = m->n_lights;
     char name[PL_PLM_NAME_MAX];
-    m->conv0_w = expect(m, &used, &rc, "conv0.weight", 4, 64, 3, 7, 7);
-    m->conv0_b = expect(m, &used, &rc, "conv0.bias", 1, 64, 0, 0, 0);
+    m->conv0_w = pl_bind_f32(&bd, "conv0.weight", 4, 64, 3, 7, 7);
+    m->conv0_b = pl_bind_f32(&bd, "conv0.bias", 1, 64, 0, 0, 0);
     int li = 0;
     for (int b = 0; b < N_BLOCKS; b++) {
         for (int l = 0; l < block_layers[b]; l++, li++) {
             struct dense_layer *L = &m->layers[li];
             L->cin = block_c0[b] + GROWTH * l;
 #define NAME(fmt) (snprintf(name, sizeof name, "denseblock%d.denselayer%d." fmt, b + 1, l + 1), name)
-            L->n1_scale = expect(m, &used, &rc, NAME("norm1.scale"), 1, L->cin, 0, 0, 0);
-            L->n1_shift = expect(m, &used, &rc, NAME("norm1.shift"), 1, L->cin, 0, 0, 0);
-            L->c1_w = expect(m, &used, &rc, NAME("conv1.weight"), 4, BOTTLENECK, L->cin, 1, 1);
-            L->c1_b = expect(m, &used, &rc, NAME("conv1.bias"), 1, BOTTLENECK, 0, 0, 0);
-            L->c2_w = expect(m, &used, &rc, NAME("conv2.weight"), 4, GROWTH, BOTTLENECK, 3, 3);
+            L->n1_scale = pl_bind_f32(&bd, NAME("norm1.scale"), 1, L->cin, 0, 0, 0);
+            L->n1_shift = pl_bind_f32(&bd, NAME("norm1.shift"), 1, L->cin, 0, 0, 0);
+            L->c1_w = pl_bind_f32(&bd, NAME("conv1.weight"), 4, BOTTLENECK, L->cin, 1, 1);
+            L->c1_b = pl_bind_f32(&bd, NAME("conv1.bias"), 1, BOTTLENECK, 0, 0, 0);
+            L->c2_w = pl_bind_f32(&bd, NAME("conv2.weight"), 4, GROWTH, BOTTLENECK, 3, 3);
 #undef NAME
         }
         if (b < N_BLOCKS - 1) {
             struct transition *T = &m->trans[b];
             T->cin = block_c0[b] + GROWTH * block_layers[b];
             snprintf(name, sizeof name, "transition%d.norm.scale", b + 1);
-            T->scale = expect(m, &used, &rc, name, 1, T->cin, 0, 0, 0);
+            T->scale = pl_bind_f32(&bd, name, 1, T->cin, 0, 0, 0);
             snprintf(name, sizeof name, "transition%d.norm.shift", b + 1);
-            T->shift = expect(m, &used, &rc, name, 1, T->cin, 0, 0, 0);
+            T->shift = pl_bind_f32(&bd, name, 1, T->cin, 0, 0, 0);
             snprintf(name, sizeof name, "transition%d.conv.weight", b + 1);
-            T->w = expect(m, &used, &rc, name, 4, T->cin / 2, T->cin, 1, 1);
+            T->w = pl_bind_f32(&bd, name, 4, T->cin / 2, T->cin, 1, 1);
         }
     }
     const int feat = 1024, zl = feat * m->bands, H = m->dist_hidden;
-    m->n5_scale = expect(m, &used, &rc, "norm5.scale", 1, feat, 0, 0, 0);
-    m->n5_shift = expect(m, &used, &rc, "norm5.shift", 1, feat, 0, 0, 0);
-    m->fc_w = expect(m, &used, &rc, "fc.weight", 2, m->fc_n, zl, 0, 0);
-    m->fc_b = expect(m, &used, &rc, "fc.bias", 1, m->fc_n, 0, 0, 0);
-    m->dir_w = expect(m, &used, &rc, "head_dir.weight", 2, 3 * N, m->fc_n, 0, 0);
-    m->dir_b = expect(m, &used, &rc, "head_dir.bias", 1, 3 * N, 0, 0, 0);
-    m->size_w = expect(m, &used, &rc, "head_size.weight", 2, N, m->fc_n, 0, 0);
-    m->size_b = expect(m, &used, &rc, "head_size.bias", 1, N, 0, 0, 0);
-    m->rgb_w = expect(m, &used, &rc, "head_rgb.weight", 2, 3 * N, m->fc_n, 0, 0);
-    m->rgb_b = expect(m, &used, &rc, "head_rgb.bias", 1, 3 * N, 0, 0, 0);
-    m->amb_w = expect(m, &used, &rc, "head_ambient.weight", 2, 3, m->fc_n, 0, 0);
-    m->amb_b = expect(m, &used, &rc, "head_ambient.bias", 1, 3, 0, 0, 0);
-    m->d1_w = expect(m, &used, &rc, "head_dist.fc1.weight", 2, H, zl + 3 * N, 0, 0);
-    m->d1_b = expect(m, &used, &rc, "head_dist.fc1.bias", 1, H, 0, 0, 0);
-    m->d2_w = expect(m, &used, &rc, "head_dist.fc2.weight", 2, N, H, 0, 0);
-    m->d2_b = expect(m, &used, &rc, "head_dist.fc2.bias", 1, N, 0, 0, 0);
-    if (rc < 0) return rc;
-    if ((uint32_t)used != m->file.n_tensors) {
+    m->n5_scale = pl_bind_f32(&bd, "norm5.scale", 1, feat, 0, 0, 0);
+    m->n5_shift = pl_bind_f32(&bd, "norm5.shift", 1, feat, 0, 0, 0);
+    m->fc_w = pl_bind_f32(&bd, "fc.weight", 2, m->fc_n, zl, 0, 0);
+    m->fc_b = pl_bind_f32(&bd, "fc.bias", 1, m->fc_n, 0, 0, 0);
+    m->heads = (pl_heads){.n_lights = N, .fc_n = m->fc_n, .dist_hidden = H, .z_len = zl};
+    pl_heads_bind(&bd, &m->heads);
+    m->heads.d1_w = pl_bind_f32(&bd, "head_dist.fc1.weight", 2, H, zl + 3 * N, 0, 0);
+    pl_heads_bind_dist(&bd, &m->heads);
+    m->n_params += bd.params;
+    if (bd.rc < 0) return bd.rc;
+    if ((uint32_t)bd.used != m->file.n_tensors) {
         for (uint32_t i = 0; i < m->file.n_tensors; i++) {
             const char *n = m->file.tensors[i].name;
             /* find the first tensor the architecture does not name */
@@ -245,7 +205,7 @@ static int bind_tensors(pl_model *m)
                                 m->arch);
         }
         return pl_error(PL_E_MODEL, "%s: %u tensors, the architecture uses %d", m->file.path,
-                        m->file.n_tensors, used);
+                        m->file.n_tensors, bd.used);
     }
     return PL_OK;
 }
@@ -265,10 +225,8 @@ static int plan_arena(pl_model *m)
     const size_t b = max_sz(3 * H * W, max_sz(256 * hw1, 1024 * hw3));
     const size_t t1 = max_sz(256 * hw1, max_sz(512 * hw2, 1024 * hw3));
     const size_t t2 = max_sz(BOTTLENECK * hw1, 256 * hw1 / 4);
-    const int N = m->n_lights;
     m->z_len = 1024 * m->bands;
-    const size_t small = (size_t)m->z_len + (size_t)m->fc_n + (size_t)(3 * N + N + 3 * N + 3) +
-                         (size_t)(m->z_len + 3 * N) + (size_t)m->dist_hidden + (size_t)N;
+    const size_t small = (size_t)m->z_len + (size_t)m->fc_n + pl_heads_floats(&m->heads);
     /* each region rounded up to 16 floats (64 bytes) */
     const size_t regions[] = {a, b, t1, t2, small};
     size_t total = 0;
@@ -292,19 +250,7 @@ static int plan_arena(pl_model *m)
     p += m->z_len;
     m->h = p;
     p += m->fc_n;
-    m->out_dir = p;
-    p += 3 * N;
-    m->out_size = p;
-    p += N;
-    m->out_rgb = p;
-    p += 3 * N;
-    m->out_amb = p;
-    p += 3;
-    m->dist_in = p;
-    p += m->z_len + 3 * N;
-    m->dist_h = p;
-    p += m->dist_hidden;
-    m->out_dist = p;
+    pl_heads_place(&m->heads, p);
     return PL_OK;
 }
 
@@ -548,33 +494,6 @@ int pl_model_set_observer(pl_model *m, pl_layer_observer fn, void *ctx)
     return PL_OK;
 }
 
-const char *pl_prof_stage_name(int stage)
-{
-    static const char *const names[PL_PROF_N] = {
-        "preprocess",   "stem 7x7",     "max pool",     "dense 1x1 b1", "dense 3x3 b1",
-        "dense 1x1 b2", "dense 3x3 b2", "dense 1x1 b3", "dense 3x3 b3", "dense 1x1 b4",
-        "dense 3x3 b4", "transition 1", "transition 2", "transition 3", "norm5 + bands",
-        "fc + heads"};
-    return stage >= 0 && stage < PL_PROF_N ? names[stage] : NULL;
-}
-
-int64_t pl_prof_now(const pl_profile *p)
-{
-    if (!p) return 0;
-    if (!p->thread_cpu) return pl_now_ns();
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
-}
-
-void pl_prof_mark(pl_profile *p, int stage, int64_t *t)
-{
-    if (!p) return;
-    const int64_t now = pl_prof_now(p);
-    p->ns[stage] += now - *t;
-    *t = now;
-}
-
 int pl_model_set_profile(pl_model *m, pl_profile *p)
 {
     if (!m) return pl_error(PL_E_ARG, "pl_model_set_profile: model is NULL");
@@ -722,9 +641,11 @@ static void observe(const pl_model *m, const char *layer, const float *chw, int 
     if (m->observer) m->observer(m->observer_ctx, layer, chw, c, h, w, NULL);
 }
 
-static float softplus(float x)
+/* fc for the heads (model/heads.h) */
+static void heads_fc(void *ctx, const float *in, int n_in, const float *w, const float *b,
+                     int n_out, int relu, float *out)
 {
-    return x > 20.0f ? x : log1pf(expf(x)); /* PyTorch's softplus: beta 1, threshold 20 */
+    fc(ctx, in, n_in, w, b, n_out, relu, out);
 }
 
 static void forward(pl_model *m, int64_t clk)
@@ -792,29 +713,9 @@ static void forward(pl_model *m, int64_t clk)
     pl_prof_mark(m->prof, PL_PROF_NORM5, &clk);
     observe(m, "z", m->z, m->z_len, 1, 1);
 
-    const int N = m->n_lights;
     fc(m, m->z, m->z_len, m->fc_w, m->fc_b, m->fc_n, 1, m->h);
     observe(m, "fc", m->h, m->fc_n, 1, 1);
-    fc(m, m->h, m->fc_n, m->dir_w, m->dir_b, 3 * N, 0, m->out_dir);
-    fc(m, m->h, m->fc_n, m->size_w, m->size_b, N, 0, m->out_size);
-    fc(m, m->h, m->fc_n, m->rgb_w, m->rgb_b, 3 * N, 0, m->out_rgb);
-    fc(m, m->h, m->fc_n, m->amb_w, m->amb_b, 3, 0, m->out_amb);
-    for (int i = 0; i < N; i++) { /* F.normalize(eps=1e-12) */
-        float *d = m->out_dir + 3 * i;
-        const float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const float inv = 1.0f / (n > 1e-12f ? n : 1e-12f);
-        d[0] *= inv;
-        d[1] *= inv;
-        d[2] *= inv;
-    }
-    for (int i = 0; i < N; i++) m->out_size[i] = softplus(m->out_size[i]);
-    for (int i = 0; i < 3 * N; i++) m->out_rgb[i] = softplus(m->out_rgb[i]);
-    for (int i = 0; i < 3; i++) m->out_amb[i] = softplus(m->out_amb[i]);
-    memcpy(m->dist_in, m->z, (size_t)m->z_len * sizeof(float));
-    memcpy(m->dist_in + m->z_len, m->out_dir, (size_t)(3 * N) * sizeof(float));
-    fc(m, m->dist_in, m->z_len + 3 * N, m->d1_w, m->d1_b, m->dist_hidden, 1, m->dist_h);
-    fc(m, m->dist_h, m->dist_hidden, m->d2_w, m->d2_b, N, 0, m->out_dist);
-    for (int i = 0; i < N; i++) m->out_dist[i] = softplus(m->out_dist[i]);
+    pl_heads_run(&m->heads, m->z, m->h, heads_fc, m);
     pl_prof_mark(m->prof, PL_PROF_HEADS, &clk);
 }
 
@@ -836,16 +737,7 @@ static void estimate_f32(pl_model *m, const uint8_t *rgb, size_t stride, int x0,
     pl_prof_mark(m->prof, PL_PROF_PRE, &pt);
     forward(m, pt);
 
-    memset(out, 0, sizeof *out);
-    out->n_lights = m->n_lights;
-    for (int i = 0; i < m->n_lights; i++) {
-        pl_light *L = &out->lights[i];
-        memcpy(L->dir, m->out_dir + 3 * i, sizeof L->dir);
-        memcpy(L->rgb, m->out_rgb + 3 * i, sizeof L->rgb);
-        L->distance_m = m->out_dist[i];
-        L->solid_angle_sr = m->out_size[i];
-    }
-    memcpy(out->ambient, m->out_amb, sizeof out->ambient);
+    pl_heads_lighting(&m->heads, out);
 }
 
 int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, size_t stride,
