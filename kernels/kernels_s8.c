@@ -89,6 +89,23 @@ size_t pl_s8_conv_a_size(const pl_s8_conv *c)
     return (size_t)c->n * (size_t)c->a_h * (size_t)c->a_w * (size_t)c->cs + 64;
 }
 
+void pl_s8_a_fill_pad(const pl_s8_conv *c, uint8_t *a)
+{
+    memset(a, pl_s8_pad_u(c->input_offset),
+           (size_t)c->n * (size_t)c->a_h * (size_t)c->a_w * (size_t)c->cs);
+}
+
+void pl_s8_a_read_s8(const pl_s8_conv *c, const uint8_t *a, int y0, int x0, int h, int w,
+                     int8_t *out)
+{
+    const size_t row = (size_t)w * (size_t)c->cs;
+    for (int y = 0; y < h; y++) {
+        const uint8_t *src = a + ((size_t)(y0 + y) * (size_t)c->a_w + (size_t)x0) * (size_t)c->cs;
+        for (size_t i = 0; i < row; i++)
+            out[(size_t)y * row + i] = (int8_t)(src[i] ^ PL_S8_A_XOR);
+    }
+}
+
 /* Weight of output channel o, group g (of K/4), element e (0..3) in tap-major order, with zeros
  * for the padded channels and output channels. */
 static int8_t w_at(const pl_s8_conv *c, const int8_t *weights, int o, int g, int e)

@@ -490,12 +490,8 @@ static int pack_all(pl_s8 *s)
         s->k->s8.pack(&L[i]->pc, L[i]->w, L[i]->bias, p);
         p += (pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout) + 63) & ~(size_t)63;
     }
-    for (int i = 0; i < MAX_LAYERS; i++) {
-        /* a dense layer's 1x1 writes the 3x3's A: u8, rows w + 2 apart (forward()) */
-        pl_s8_conv *c1 = &s->layers[i].c1.pc;
-        c1->out_xor = 0x80;
-        c1->out_pitch = c1->out_w + 2;
-    }
+    for (int i = 0; i < MAX_LAYERS; i++) /* a dense layer's 1x1 writes the 3x3's A (forward()) */
+        pl_s8_conv_write_a(&s->layers[i].c1.pc, s->layers[i].c2.pc.a_w);
     return PL_OK;
 }
 
@@ -687,7 +683,7 @@ static void run_s8(void *ctx, int begin, int end)
     }
     if (j->op == S8_AVGPOOL_P) {
         j->k->avgpool(j->pool, j->in_dims, j->in, j->in_stride, j->lo, j->hi, j->out_dims,
-                      j->a_out, j->out_stride, 0x80, begin, end);
+                      j->a_out, j->out_stride, PL_S8_A_XOR, begin, end);
         if (j->fuse) j->k->run(&L->pc, j->a_out, j->out, L->out_stride, begin, end, 0, L->pc.out_c);
         return;
     }
@@ -921,21 +917,16 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
         for (int l = 0; l < block_layers[b]; l++, li++) {
             const struct s8_dense *D = &s->layers[li];
             if (s->k->s8.packed) {
-                /* the 1x1 writes its output as u8 straight into the interior of the 3x3's
-                 * padded A (pitch w + 2, border = the zero point, set once per block) */
-                const int aw = w + 2;
-                if (l == 0) memset(s->a2, pl_s8_pad_u(D->c2.p.input_offset),
-                                   (size_t)(h + 2) * (size_t)aw * BOTTLENECK);
+                /* the 1x1 writes its output straight into the interior of the 3x3's padded A
+                 * (kernels/kernels_s8.h; the border, the zero point, is set once per block) */
+                if (l == 0) pl_s8_a_fill_pad(&D->c2.pc, s->a2);
                 layer_packed(s, pool, &D->c1, cur, D->c1.lo, D->c1.hi,
-                             (int8_t *)s->a2 + ((size_t)aw + 1) * BOTTLENECK);
+                             (int8_t *)pl_s8_a_at(&D->c2.pc, s->a2, 1, 1));
                 pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
                 run_packed(pool, &s->k->s8, &D->c2, s->a2, cur + D->cin);
                 pl_prof_mark(s->prof, PL_PROF_DENSE3 + 2 * b, &t);
                 if (s->observer) /* the observer reads the bottleneck as s8 in T */
-                    for (int y = 0; y < h; y++)
-                        for (int i = 0; i < w * BOTTLENECK; i++)
-                            s->t[(size_t)y * w * BOTTLENECK + (size_t)i] = (int8_t)(
-                                s->a2[((size_t)(y + 1) * aw + 1) * BOTTLENECK + (size_t)i] ^ 0x80);
+                    pl_s8_a_read_s8(&D->c2.pc, s->a2, 1, 1, h, w, s->t);
             } else {
                 layer(s, pool, S8_CONV1X1_CLAMP, &D->c1, cur, s->t);
                 pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
