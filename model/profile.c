@@ -1,5 +1,5 @@
 /* The stage profile of model/profile.h: names and the clock. A file of its own, so that both
- * executors (model/net.c, model/net_s8.c) use it without the int8 executor calling back into
+ * executors (model/net_f32.c, model/net_s8.c) use it without the int8 executor calling back into
  * the fp32 one's file. */
 #include "model/profile.h"
 
