@@ -98,16 +98,6 @@ int pl_kernels_f32_list(const pl_kernels_f32 *t, const char **op, const char **i
     return n;
 }
 
-int pl_f32_conv_panels(const nn_conv_params *p)
-{
-    return (p->out_c + PL_F32_MR - 1) / PL_F32_MR;
-}
-
-int pl_f32_conv_tiles(const nn_conv_params *p)
-{
-    return (p->out_h * p->out_w + PL_F32_NR - 1) / PL_F32_NR;
-}
-
 static size_t k_of(const nn_conv_params *p)
 {
     return (size_t)p->in_c * (size_t)p->k_h * (size_t)p->k_w;
