@@ -7,9 +7,9 @@
 #   make clean        remove build/
 #   make BOARD=name   build for boards/name.mk (default: host)
 #
-# Everything is built out of tree under $(BUILD). Sources are found by directory, so a new
-# file in model/, kernels/, quant/, light/ or port/ joins the library without editing this file;
-# tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
+# Everything is built out of tree under $(BUILD). Sources are found by directory, so a new file
+# in core/, model/, kernels/, quant/, light/ or port/ joins the library without editing this
+# file; tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
 
 .DEFAULT_GOAL := all
 BOARD ?= host
@@ -94,11 +94,16 @@ CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
             $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS)
 LDLIBS   += $(CORE_LIBS) -lstdc++ -lm -pthread
 
-LIB_C   := $(sort $(wildcard model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
+LIB_C   := $(sort $(wildcard core/*.c model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
 
 # SIMD kernels: kernels/x86/ joins x86-64 builds, kernels/arm/ AArch64 builds. A file's ISA
-# flags come from its name (nn_conv1x1_s8__avx512vnni.c): the build stays portable and
-# kernels/isa.c picks the path at run time.
+# flags come from its name, which says the instructions it needs (nn_fc_f32__avx512f.c,
+# nn_conv_packed_s8_14x32c4__avx512vnni.c): the build stays portable and kernels/isa.c runs a
+# file only on a path that guarantees exactly those features.
+#   avx2       AVX2 + FMA                       avx512f     avx2 + AVX-512F
+#   avx512skx  avx2 + AVX-512 F/BW/DQ/VL        avx512vnni  avx512skx + AVX512_VNNI
+#   avxvnni    avx2 + AVX-VNNI (VEX)            amx         avx512vnni + AMX-TILE/INT8
+#   neon       AArch64 baseline                 neondot     + dotprod       neoni8mm  + i8mm
 TARGET_ARCH_NAME := $(shell $(CC) -dumpmachine)
 ifneq ($(findstring x86_64,$(TARGET_ARCH_NAME)),)
 LIB_C += $(sort $(wildcard kernels/x86/*.c))
@@ -106,13 +111,15 @@ endif
 ifneq ($(findstring aarch64,$(TARGET_ARCH_NAME)),)
 LIB_C += $(sort $(wildcard kernels/arm/*.c))
 endif
-ISA_FLAGS_avx2       := -mavx2 -mfma -mf16c
+ISA_FLAGS_avx2       := -mavx2 -mfma
+ISA_FLAGS_avx512f    := $(ISA_FLAGS_avx2) -mavx512f
+ISA_FLAGS_avx512skx  := $(ISA_FLAGS_avx512f) -mavx512bw -mavx512dq -mavx512vl
+ISA_FLAGS_avx512vnni := $(ISA_FLAGS_avx512skx) -mavx512vnni
 ISA_FLAGS_avxvnni    := $(ISA_FLAGS_avx2) -mavxvnni
-ISA_FLAGS_avx512vnni := $(ISA_FLAGS_avx2) -mavx512f -mavx512bw -mavx512dq -mavx512vl -mavx512vnni
 ISA_FLAGS_amx        := $(ISA_FLAGS_avx512vnni) -mamx-tile -mamx-int8
 ISA_FLAGS_neon       :=
-ISA_FLAGS_dotprod    := -march=armv8.2-a+dotprod
-ISA_FLAGS_i8mm       := -march=armv8.6-a+dotprod+i8mm
+ISA_FLAGS_neondot    := -march=armv8.2-a+dotprod
+ISA_FLAGS_neoni8mm   := -march=armv8.6-a+dotprod+i8mm
 isa_of = $(lastword $(subst __, ,$(basename $(notdir $(1)))))
 LIB_CXX := $(filter-out $(PLUGIN_OPENCV_SRC) $(PLUGIN_LIBCAMERA_SRC),\
                         $(sort $(wildcard port/*.cpp light/*.cpp)))

@@ -11,13 +11,13 @@
 
 #include "app/cli.h"
 #include "app/commands.h"
+#include "core/util.h"
 #include "kernels/isa.h"
 #include "model/arch.h"
 #include "model/plm.h"
 #include "model/profile.h"
 #include "parlight.h"
 #include "port/image.h"
-#include "port/util.h"
 
 static void help(FILE *f)
 {

@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "app/commands.h"
 #include "app/cli.h"
+#include "app/commands.h"
+#include "core/util.h"
 #include "parlight.h"
 #include "port/libcamera_src.h"
-#include "port/util.h"
 #include "port/v4l2.h"
 
 static void help(FILE *f)

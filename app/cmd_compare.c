@@ -8,10 +8,10 @@
 #include "app/cli.h"
 #include "app/commands.h"
 #include "app/light_io.h"
+#include "core/util.h"
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
 
 static void usage(FILE *f)
 {

@@ -13,13 +13,13 @@
 #include "app/commands.h"
 #include "app/light_io.h"
 #include "app/lightdata.h"
+#include "core/util.h"
 #include "light/crop.h"
-#include "light/light.h"
 #include "light/eval.h"
 #include "light/extract.h"
+#include "light/light.h"
 #include "port/hdr_io.h"
 #include "port/image_jpeg.h"
-#include "port/util.h"
 
 static void usage(FILE *f)
 {

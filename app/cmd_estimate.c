@@ -10,6 +10,7 @@
 
 #include "app/cli.h"
 #include "app/commands.h"
+#include "core/util.h"
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "light/temporal.h"
@@ -17,7 +18,6 @@
 #include "port/capture.h"
 #include "port/sink.h"
 #include "port/source.h"
-#include "port/util.h"
 
 static void help(FILE *f)
 {

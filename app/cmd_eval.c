@@ -12,14 +12,15 @@
 #include "app/cli.h"
 #include "app/commands.h"
 #include "app/light_io.h"
+#include "core/threads.h"
+#include "core/util.h"
 #include "light/eval.h"
 #include "light/extract.h"
 #include "light/lights_json.h"
 #include "light/ridge.h"
+#include "model/resize.h"
 #include "parlight.h"
 #include "port/hdr_io.h"
-#include "port/threads.h"
-#include "port/util.h"
 
 static void usage(FILE *f)
 {

@@ -10,9 +10,9 @@
 #include "app/cli.h"
 #include "app/commands.h"
 #include "app/lightdata.h"
+#include "core/util.h"
 #include "light/extract.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
 
 static void usage(FILE *f)
 {

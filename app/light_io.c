@@ -7,8 +7,9 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
+#include "port/image.h"
 
 static const char *ext_of(const char *path)
 {

@@ -3,9 +3,9 @@
 #ifndef PL_APP_LIGHT_IO_H
 #define PL_APP_LIGHT_IO_H
 
+#include "core/image.h"
 #include "light/light.h"
 #include "parlight.h"
-#include "port/image.h"
 
 /* Output kind from the extension of path: 1 = linear HDR (.exr, .hdr), 2 = tonemapped .png,
  * 0 = unknown. Case-insensitive. */

@@ -7,7 +7,7 @@ CROSS_COMPILE  ?= aarch64-linux-gnu-
 CC             := $(CROSS_COMPILE)gcc
 CXX            := $(CROSS_COMPILE)g++
 AR             := $(CROSS_COMPILE)ar
-# Baseline ISA of the board for the whole build; kernels/arm/*__dotprod.c / __i8mm.c add their
+# Baseline ISA of the board for the whole build; kernels/arm/*__neondot.c / __neoni8mm.c add their
 # own -march per file and are only dispatched when the CPU reports the feature.
 BOARD_CFLAGS   := -march=armv8-a+crc -mtune=cortex-a72
 BOARD_THREADS  := 4

@@ -4,7 +4,7 @@
 #include <pthread.h>
 #include <stdio.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 int pl_kernels_for(pl_isa isa, pl_kernels *out)
 {

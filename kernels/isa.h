@@ -1,7 +1,8 @@
 /* Instruction-set paths and their run-time selection. The CPU is probed once (cpuid + xgetbv on
- * x86, getauxval on Arm); PARLIGHT_ISA=ref|avx2|avxvnni|avx512vnni|amx|neon|dotprod|i8mm forces a
- * path, with an error when this CPU (or this build) lacks it. Kernel tables (kernels/dispatch.h)
- * are filled from the selected path. */
+ * x86, getauxval on Arm); PARLIGHT_ISA=ref|avx2|avxvnni|avx512f|avx512vnni|amx|neon|dotprod|i8mm
+ * forces a path, with an error when this CPU (or this build) lacks it. Kernel tables
+ * (kernels/dispatch.h) are filled from the selected path: a path takes exactly the kernels whose
+ * instructions (the suffix of their file, see the Makefile) its features guarantee. */
 #ifndef PL_KERNELS_ISA_H
 #define PL_KERNELS_ISA_H
 
@@ -9,7 +10,8 @@ typedef enum pl_isa {
     PL_ISA_REF, /* portable C, the reference every other path must equal (int8) or approach (fp32) */
     PL_ISA_AVX2,       /* x86-64-v3: AVX2 + FMA */
     PL_ISA_AVXVNNI,    /* AVX2 + AVX-VNNI (VEX-encoded vpdpbusd) */
-    PL_ISA_AVX512VNNI, /* x86-64-v4 + AVX512_VNNI */
+    PL_ISA_AVX512F,    /* AVX2 + AVX-512F: the fp32 AVX-512 kernels (a Skylake-SP, no VNNI) */
+    PL_ISA_AVX512VNNI, /* AVX2 + AVX-512 F/BW/DQ/VL + AVX512_VNNI */
     PL_ISA_AMX,        /* AVX512_VNNI + AMX-INT8 (the OS must grant the tile state) */
     PL_ISA_NEON,       /* AArch64 Advanced SIMD */
     PL_ISA_DOTPROD,    /* NEON + SDOT/UDOT (Armv8.2 dotprod) */
@@ -29,7 +31,21 @@ int pl_isa_supported(pl_isa isa);
 int pl_isa_select(pl_isa *out);
 
 /* Whether `isa` includes `base`: every kernel of `base` may run under `isa`
- * (avx512vnni includes avx2, dotprod includes neon, everything includes ref). */
+ * (avx512vnni includes avx512f and avx2, dotprod includes neon, everything includes ref). */
 int pl_isa_includes(pl_isa isa, pl_isa base);
+
+/* The CPU features the paths are made of, as cpuid/xgetbv or getauxval report them (the *_os
+ * fields: the OS saves that register state; amx_granted: Linux granted the tile state). */
+typedef struct pl_cpu_features {
+    int avx, fma, avx2, ymm_os, zmm_os;
+    int avx512f, avx512bw, avx512dq, avx512vl, avx512vnni, avxvnni;
+    int amx_tile, amx_int8, amx_granted;
+    int neon, dotprod, i8mm;
+} pl_cpu_features;
+
+/* The paths a CPU with `f` runs (paths[i] for pl_isa i; ref always) and the best of them, as
+ * pl_isa_select picks it without PARLIGHT_ISA. Pure: tests feed it CPUs this machine is not. */
+void pl_isa_paths_of(const pl_cpu_features *f, int paths[PL_ISA_COUNT]);
+pl_isa pl_isa_best(const int paths[PL_ISA_COUNT]);
 
 #endif

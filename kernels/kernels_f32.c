@@ -22,14 +22,15 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
     SLOT(avgpool, nn_avgpool2d_f32__ref);
     SLOT(fc, nn_fc_f32__ref);
 #if defined(__x86_64__)
-    if (pl_isa_includes(isa, PL_ISA_AVX512VNNI)) {
+    /* AVX-512F is all the AVX-512 kernels need: a Skylake-SP (no VNNI) runs them too */
+    if (pl_isa_includes(isa, PL_ISA_AVX512F)) {
         t->packed = 1;
-        SLOT(conv, nn_conv_gemm_f32_8x48__avx512vnni);
-        SLOT(wino, nn_conv_wino_f32_8x48__avx512vnni);
-        SLOT(bn_relu, nn_bn_relu_f32__avx512vnni);
-        SLOT(fc, nn_fc_f32__avx512vnni);
-        SLOT(maxpool, nn_maxpool2d_f32__avx512vnni);
-        SLOT(avgpool, nn_avgpool2d_f32__avx512vnni);
+        SLOT(conv, nn_conv_gemm_f32_8x48__avx512f);
+        SLOT(wino, nn_conv_wino_f32_8x48__avx512f);
+        SLOT(bn_relu, nn_bn_relu_f32__avx512f);
+        SLOT(fc, nn_fc_f32__avx512f);
+        SLOT(maxpool, nn_maxpool2d_f32__avx512f);
+        SLOT(avgpool, nn_avgpool2d_f32__avx512f);
     } else if (pl_isa_includes(isa, PL_ISA_AVX2)) {
         t->packed = 1;
         SLOT(conv, nn_conv_gemm_f32_4x24__avx2);
@@ -95,16 +96,6 @@ int pl_kernels_f32_list(const pl_kernels_f32 *t, const char **op, const char **i
         if (impl) impl[i] = impls[i];
     }
     return n;
-}
-
-int pl_f32_conv_panels(const nn_conv_params *p)
-{
-    return (p->out_c + PL_F32_MR - 1) / PL_F32_MR;
-}
-
-int pl_f32_conv_tiles(const nn_conv_params *p)
-{
-    return (p->out_h * p->out_w + PL_F32_NR - 1) / PL_F32_NR;
 }
 
 static size_t k_of(const nn_conv_params *p)

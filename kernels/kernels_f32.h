@@ -78,9 +78,16 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa);
  * returns how many there are. */
 int pl_kernels_f32_list(const pl_kernels_f32 *t, const char **op, const char **impl, int max);
 
-/* Panels and tiles of a convolution. */
-int pl_f32_conv_panels(const nn_conv_params *p);
-int pl_f32_conv_tiles(const nn_conv_params *p);
+/* Panels and tiles of a convolution. Inline: the micro-kernel files use them too, and a call
+ * into kernels_f32.c (which holds the table that points at them) would make a circle. */
+static inline int pl_f32_conv_panels(const nn_conv_params *p)
+{
+    return (p->out_c + PL_F32_MR - 1) / PL_F32_MR;
+}
+static inline int pl_f32_conv_tiles(const nn_conv_params *p)
+{
+    return (p->out_h * p->out_w + PL_F32_NR - 1) / PL_F32_NR;
+}
 /* Floats of packed weights for `p` (panels * K * MR). */
 size_t pl_f32_packed_weights_floats(const nn_conv_params *p);
 /* PyTorch [out_c][in_c][k_h][k_w] weights -> panels; dst holds pl_f32_packed_weights_floats. */

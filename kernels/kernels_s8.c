@@ -89,6 +89,23 @@ size_t pl_s8_conv_a_size(const pl_s8_conv *c)
     return (size_t)c->n * (size_t)c->a_h * (size_t)c->a_w * (size_t)c->cs + 64;
 }
 
+void pl_s8_a_fill_pad(const pl_s8_conv *c, uint8_t *a)
+{
+    memset(a, pl_s8_pad_u(c->input_offset),
+           (size_t)c->n * (size_t)c->a_h * (size_t)c->a_w * (size_t)c->cs);
+}
+
+void pl_s8_a_read_s8(const pl_s8_conv *c, const uint8_t *a, int y0, int x0, int h, int w,
+                     int8_t *out)
+{
+    const size_t row = (size_t)w * (size_t)c->cs;
+    for (int y = 0; y < h; y++) {
+        const uint8_t *src = a + ((size_t)(y0 + y) * (size_t)c->a_w + (size_t)x0) * (size_t)c->cs;
+        for (size_t i = 0; i < row; i++)
+            out[(size_t)y * row + i] = (int8_t)(src[i] ^ PL_S8_A_XOR);
+    }
+}
+
 /* Weight of output channel o, group g (of K/4), element e (0..3) in tap-major order, with zeros
  * for the padded channels and output channels. */
 static int8_t w_at(const pl_s8_conv *c, const int8_t *weights, int o, int g, int e)
@@ -206,41 +223,45 @@ static void pack_i8mm(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
     fold_bias(c, weights, bias, 0, (int32_t *)(void *)w);
 }
 
-/* One path's slots; `a` names the path of the A builders, pools and clamp. */
+/* One path's slots; `a` names the instruction set of the A builders, pools and clamp (the
+ * suffix of their files), `run` the packed convolution with its tile. */
 #define PL_S8_TABLE(layout_, pack_, a_, run_)                                                     \
     (pl_kernels_s8)                                                                               \
     {                                                                                             \
         .packed = 1, .layout = layout_, .pack = pack_, .a_pack = nn_a_pack_s8__##a_,             \
         .a_pad = nn_a_pad_s8__##a_, .a_rows = nn_a_rows_s8__##a_,                                 \
-        .a_rows_name = "nn_a_rows_s8__" #a_, .run = nn_conv_packed_s8__##run_,                    \
-        .maxpool = nn_maxpool2d_s8__##a_, .avgpool = nn_avgpool2d_s8__##a_,                       \
-        .clamp = nn_clamp_s8__##a_, .pack_name = #pack_, .a_pack_name = "nn_a_pack_s8__" #a_,     \
-        .a_pad_name = "nn_a_pad_s8__" #a_, .run_name = "nn_conv_packed_s8__" #run_,               \
-        .maxpool_name = "nn_maxpool2d_s8__" #a_, .avgpool_name = "nn_avgpool2d_s8__" #a_,         \
-        .clamp_name = "nn_clamp_s8__" #a_                                                         \
+        .a_rows_name = "nn_a_rows_s8__" #a_, .run = run_, .maxpool = nn_maxpool2d_s8__##a_,       \
+        .avgpool = nn_avgpool2d_s8__##a_, .clamp = nn_clamp_s8__##a_, .pack_name = #pack_,       \
+        .a_pack_name = "nn_a_pack_s8__" #a_, .a_pad_name = "nn_a_pad_s8__" #a_,                   \
+        .run_name = #run_, .maxpool_name = "nn_maxpool2d_s8__" #a_,                               \
+        .avgpool_name = "nn_avgpool2d_s8__" #a_, .clamp_name = "nn_clamp_s8__" #a_               \
     }
 
+/* Each path takes the kernels whose instructions it guarantees (kernels/isa.h): avx512vnni the
+ * AVX-512 F/BW/DQ/VL A builders and pools and the VNNI convolution; avxvnni, and avx512f (AVX-512
+ * without VNNI: no int8 kernel of its own), the AVX2 ones. */
 void pl_kernels_s8_fill(pl_kernels_s8 *t, pl_isa isa)
 {
     memset(t, 0, sizeof *t);
     t->layout = PL_S8_LAYOUT_NONE;
 #if defined(__x86_64__)
     if (pl_isa_includes(isa, PL_ISA_AVX512VNNI))
-        *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx512vnni, avx512vnni);
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx512skx,
+                         nn_conv_packed_s8_14x32c4__avx512vnni);
     else if (pl_isa_includes(isa, PL_ISA_AVXVNNI))
-        *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx2, avxvnni);
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx2, nn_conv_packed_s8_6x16c4__avxvnni);
     else if (pl_isa_includes(isa, PL_ISA_AVX2))
-        *t = PL_S8_TABLE(PL_S8_LAYOUT_AVX2, pack_avx2, avx2, avx2);
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_AVX2, pack_avx2, avx2, nn_conv_packed_s8_4x16c4__avx2);
     (void)pack_sdot;
     (void)pack_i8mm;
 #elif defined(__aarch64__)
     /* the A builders, pools and clamp are NEON for every Arm path */
     if (pl_isa_includes(isa, PL_ISA_I8MM))
-        *t = PL_S8_TABLE(PL_S8_LAYOUT_I8MM, pack_i8mm, neon, i8mm);
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_I8MM, pack_i8mm, neon, nn_conv_packed_s8_4x16c8__neoni8mm);
     else if (pl_isa_includes(isa, PL_ISA_DOTPROD))
-        *t = PL_S8_TABLE(PL_S8_LAYOUT_SDOT, pack_sdot, neon, dotprod);
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_SDOT, pack_sdot, neon, nn_conv_packed_s8_4x16c4__neondot);
     else if (pl_isa_includes(isa, PL_ISA_NEON))
-        *t = PL_S8_TABLE(PL_S8_LAYOUT_SDOT, pack_sdot, neon, neon);
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_SDOT, pack_sdot, neon, nn_conv_packed_s8_1x16c4__neon);
     (void)pack_vnni;
     (void)pack_avx2;
 #else
@@ -286,8 +307,8 @@ int pl_kernels_s8_list(const pl_kernels_s8 *t, const char **op, const char **imp
         }
     }
     for (int i = 0; i < n && i < max; i++) {
-        op[i] = ops[i];
-        impl[i] = impls[i];
+        if (op) op[i] = ops[i];
+        if (impl) impl[i] = impls[i];
     }
     return n;
 }

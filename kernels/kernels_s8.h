@@ -147,8 +147,8 @@ typedef struct pl_kernels_s8 {
 /* Fills every slot with the fastest implementation `isa` includes (kernels/isa.h). */
 void pl_kernels_s8_fill(pl_kernels_s8 *t, pl_isa isa);
 
-/* The slots as (operation, implementation) pairs for `parlight info`: up to `max` entries,
- * returns how many there are. On the reference path the operations are the kernels of
+/* The slots as (operation, implementation) pairs for `parlight info`: up to `max` entries
+ * (op or impl may be NULL), returns how many there are. On the reference path the operations are the kernels of
  * kernels/ref/ the executor calls. */
 int pl_kernels_s8_list(const pl_kernels_s8 *t, const char **op, const char **impl, int max);
 
@@ -178,5 +178,32 @@ static inline uint8_t pl_s8_pad_u(int32_t input_offset)
 {
     return (uint8_t)(128 - input_offset);
 }
+
+/* ---- chaining two packed convolutions through A ----------------------------------------------
+ * A holds u8 (s8 + 128, i.e. x ^ PL_S8_A_XOR), which VNNI's u8 x s8 product wants. A producer
+ * can write its output straight into the interior of a padded consumer's A, so the consumer
+ * needs no a_pad pass: the executor calls pl_s8_conv_write_a on the producer once at load,
+ * pl_s8_a_fill_pad on the consumer's A once per map size (the border is the zero point, and no
+ * kernel writes it), runs the producer into pl_s8_a_at(consumer, a, pad_h, pad_w), then the
+ * consumer's `run` on a. pl_s8_a_read_s8 reads an interior back as s8 (for the observer). */
+#define PL_S8_A_XOR 0x80
+
+/* The producer writes u8 A pixels (out_xor) with pixel rows a_w apart (out_pitch), for a
+ * consumer whose A rows are a_w pixels. */
+static inline void pl_s8_conv_write_a(pl_s8_conv *producer, int a_w)
+{
+    producer->out_xor = PL_S8_A_XOR;
+    producer->out_pitch = a_w;
+}
+/* Every byte of c's A (n*a_h*a_w*cs) set to the zero point, pl_s8_pad_u(c->input_offset). */
+void pl_s8_a_fill_pad(const pl_s8_conv *c, uint8_t *a);
+/* The address of A pixel (y, x) of image 0. */
+static inline uint8_t *pl_s8_a_at(const pl_s8_conv *c, uint8_t *a, int y, int x)
+{
+    return a + ((size_t)y * (size_t)c->a_w + (size_t)x) * (size_t)c->cs;
+}
+/* The h x w pixels of A from (y0, x0), cs channels each, as s8 into out (h*w*cs, packed). */
+void pl_s8_a_read_s8(const pl_s8_conv *c, const uint8_t *a, int y0, int x0, int h, int w,
+                     int8_t *out);
 
 #endif

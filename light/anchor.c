@@ -4,8 +4,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/util.h"
 #include "light/light.h"
-#include "port/util.h"
 
 #define FOUR_PI (4.0 * M_PI)
 

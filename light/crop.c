@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
-#include "port/util.h"
 
 #define DEG (M_PI / 180.0)
 

@@ -25,8 +25,8 @@
 #ifndef PL_LIGHT_CROP_H
 #define PL_LIGHT_CROP_H
 
+#include "core/image.h"
 #include "parlight.h"
-#include "port/image.h"
 
 typedef struct pl_crop_params {
     double yaw_deg;     /* -360..360 */

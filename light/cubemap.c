@@ -1,9 +1,9 @@
 /* HDR cube maps in OpenGL / WebGL TEXTURE_CUBE_MAP conventions (docs/LIGHTING.md). */
 #include <math.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
 #include "light/light.h"
-#include "port/util.h"
 
 void pl_cubemap_dir(int f, int face, double x, double y, double dir[3])
 {

@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
 #include "light/light.h"
-#include "port/util.h"
 
 #define DEG (M_PI / 180.0)
 

@@ -36,9 +36,9 @@
 #ifndef PL_LIGHT_EVAL_H
 #define PL_LIGHT_EVAL_H
 
+#include "core/image.h"
 #include "light/crop.h"
 #include "parlight.h"
-#include "port/image.h"
 
 typedef enum pl_eval_method {
     PL_EVAL_MODEL = 0,

@@ -34,8 +34,8 @@
 #ifndef PL_LIGHT_EXTRACT_H
 #define PL_LIGHT_EXTRACT_H
 
+#include "core/image.h"
 #include "parlight.h"
-#include "port/image.h"
 
 /* The assumed room: an axis-aligned box around the camera, metres. The floor is camera_height
  * below the camera, the ceiling room_height - camera_height above it, the walls half_width to the

@@ -10,8 +10,8 @@
 #ifndef PL_LIGHT_LIGHT_H
 #define PL_LIGHT_LIGHT_H
 
+#include "core/image.h"
 #include "parlight.h"
-#include "port/image.h"
 
 /* Eq. (4), taken literally (DESIGN.md): radiance of the lights + ambient in unit direction u:
  * sum_i c_i exp((l_i.u - 1) / (s_i / 4pi)) + a. */

@@ -5,8 +5,8 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "port/json.h"
-#include "port/util.h"
+#include "core/json.h"
+#include "core/util.h"
 
 /* Reads a finite number >= lo (or > lo when strict) from v into *out; `what` names the field. */
 static int get_number(const char *name, const pl_json_value *v, const char *what, double lo,

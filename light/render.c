@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
 #include "light/light.h"
-#include "port/util.h"
 
 /* Samples of the 1D integral over the angle from a light (pl_render_sphere_lights, diffuse). */
 #define DIFFUSE_SAMPLES 512

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/json.h"
-#include "port/util.h"
+#include "core/json.h"
+#include "core/util.h"
 
 static const char *const output_names[PL_RIDGE_N_OUT] = {"dir_x",
                                                          "dir_y",

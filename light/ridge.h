@@ -36,8 +36,8 @@
 
 #include <stddef.h>
 
+#include "core/image.h"
 #include "parlight.h"
-#include "port/image.h"
 
 #define PL_RIDGE_FORMAT "parlight-ridge"
 #define PL_RIDGE_VERSION 1

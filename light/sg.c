@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
 #include "light/light.h"
-#include "port/util.h"
 
 #define FOUR_PI (4.0 * M_PI)
 

@@ -2,9 +2,9 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
 #include "light/light.h"
-#include "port/util.h"
 
 /* Real orthonormal basis without the Condon-Shortley phase (docs/LIGHTING.md), WebXR order. */
 static void sh_basis(const double u[3], double y[9])

@@ -4,8 +4,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
-#include "port/util.h"
 
 /* Cost of a forbidden pair: larger than any sum of real costs (N * pi), so the assignment first
  * maximises the number of allowed pairs, then minimises their total angle. */

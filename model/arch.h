@@ -1,5 +1,5 @@
 /* The densenet121-parametric architecture constants (tools/model.py, docs/FORMAT.md), shared by
- * the fp32 executor (model/net.c), the int8 executor (model/net_s8.c) and the quantiser
+ * the fp32 executor (model/net_f32.c), the int8 executor (model/net_s8.c) and the quantiser
  * (quant/quantize.c), so that the graph is written down once. */
 #ifndef PL_MODEL_ARCH_H
 #define PL_MODEL_ARCH_H

@@ -25,14 +25,17 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/image.h"
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
+#include "kernels/requant.h"
+#include "model/binder.h"
+#include "model/heads.h"
 #include "model/profile.h"
-#include "port/image.h"
-#include "port/util.h"
-#include "quant/requant.h"
+#include "model/resize.h"
 
 #define STEM_PAD 3
 
@@ -83,9 +86,8 @@ struct pl_s8 {
      * scale per row (fc_w8, fc_ws); fc_bf its float bias. NULL: the int8 fc */
     const float *fc_wf, *fc_ws, *fc_bf;
     const int8_t *fc_w8;
-    const float *dir_w, *dir_b, *size_w, *size_b, *rgb_w, *rgb_b, *amb_w, *amb_b;
-    float *d1_w; /* dequantised at load from s8 + per-row scales */
-    const float *d1_b, *d2_w, *d2_b;
+    pl_heads heads; /* model/heads.h; heads.d1_w is d1_w */
+    float *d1_w;    /* dequantised at load from s8 + per-row scales */
     int32_t *qbuf;
 
     const pl_kernels *k; /* the kernel table this executor runs */
@@ -99,7 +101,7 @@ struct pl_s8 {
     int8_t *buf_a, *buf_b, *t, *zq, *hq;
     float *tf_in, *tf_out; /* kept-float transitions: pooled input, conv output (or NULL) */
     size_t tf_in_n, tf_out_n;
-    float *fin, *z, *h, *out_dir, *out_size, *out_rgb, *out_amb, *dist_in, *dist_h, *out_dist;
+    float *fin, *z, *h;
     int z_len;
 
     pl_layer_observer observer;
@@ -117,43 +119,15 @@ static size_t max_sz(size_t a, size_t b)
 }
 
 struct binder {
+    pl_binder t; /* model/binder.h */
     pl_s8 *s;
-    int used, rc;
     size_t q_used, q_cap;
 };
 
 static const pl_tensor *find(struct binder *b, const char *name, pl_dtype dt, int ndim, int d0,
                              int d1, int d2, int d3)
 {
-    if (b->rc < 0) return NULL;
-    const pl_plm *f = b->s->file;
-    const pl_tensor *t = pl_plm_tensor(f, name);
-    const int want[4] = {d0, d1, d2, d3};
-    if (!t) {
-        b->rc = pl_error(PL_E_MODEL, "%s: tensor '%s' missing (int8 model)", f->path, name);
-        return NULL;
-    }
-    if (t->dtype != dt) {
-        b->rc = pl_error(PL_E_MODEL, "%s: tensor '%s' is %s, expected %s", f->path, name,
-                         pl_dtype_name(t->dtype), pl_dtype_name(dt));
-        return NULL;
-    }
-    int ok = t->ndim == ndim;
-    for (int i = 0; ok && i < ndim; i++)
-        ok = t->dims[i] == (uint32_t)want[i];
-    if (!ok) {
-        char got[64], exp[64];
-        int n = 0, k = 0;
-        for (int i = 0; i < t->ndim; i++)
-            n += snprintf(got + n, sizeof got - (size_t)n, "%s%u", i ? "," : "", t->dims[i]);
-        for (int i = 0; i < ndim; i++)
-            k += snprintf(exp + k, sizeof exp - (size_t)k, "%s%d", i ? "," : "", want[i]);
-        b->rc = pl_error(PL_E_MODEL, "%s: tensor '%s' has shape [%s], expected [%s]", f->path, name,
-                         got, exp);
-        return NULL;
-    }
-    b->used++;
-    return t;
+    return pl_bind(&b->t, name, dt, ndim, d0, d1, d2, d3);
 }
 
 /* An activation's quantisation (docs/FORMAT.md): for a ReLU output the f32 [c] tensor `name`
@@ -163,23 +137,23 @@ static int bind_act(struct binder *b, const char *name, int c, int relu, struct 
 {
     const pl_tensor *t =
         relu ? find(b, name, PL_DT_F32, 1, c, 0, 0, 0) : find(b, name, PL_DT_F32, 2, 2, c, 0, 0);
-    if (!t) return b->rc;
+    if (!t) return b->t.rc;
     const float *sc = t->data, *zp = relu ? NULL : sc + c;
     const char *path = b->s->file->path;
     for (int i = 0; i < c; i++) {
         if (!(sc[i] > 0) || sc[i] > 1e9f)
-            return b->rc = pl_error(PL_E_MODEL,
+            return b->t.rc = pl_error(PL_E_MODEL,
                                     "%s: tensor '%s': channel %d scale %g, expected a "
                                     "finite value in (0, 1e9]",
                                     path, name, i, (double)sc[i]);
         if (zp && (!(zp[i] >= -32767 && zp[i] <= 32767) || zp[i] != floorf(zp[i])))
-            return b->rc = pl_error(PL_E_MODEL,
+            return b->t.rc = pl_error(PL_E_MODEL,
                                     "%s: tensor '%s': channel %d zero point %g, "
                                     "expected an integer in [-32767, 32767]",
                                     path, name, i, (double)zp[i]);
     }
     if (t->zero_point < -128 || t->zero_point > 127 || (relu && t->zero_point != -128))
-        return b->rc = pl_error(PL_E_MODEL,
+        return b->t.rc = pl_error(PL_E_MODEL,
                                 "%s: tensor '%s': zero point (output offset) %d, "
                                 "expected %s",
                                 path, name, t->zero_point,
@@ -195,11 +169,11 @@ static int bind_clamp(struct binder *b, const char *name, int c, const int8_t **
                       const int8_t **hi)
 {
     const pl_tensor *t = find(b, name, PL_DT_S8, 2, 2, c, 0, 0);
-    if (!t) return b->rc;
+    if (!t) return b->t.rc;
     const int8_t *d = t->data;
     for (int i = 0; i < c; i++)
         if (d[i] > d[c + i])
-            return b->rc = pl_error(PL_E_MODEL,
+            return b->t.rc = pl_error(PL_E_MODEL,
                                     "%s: tensor '%s': channel %d clamp [%d, %d] has "
                                     "lower > upper bound",
                                     b->s->file->path, name, i, d[i], d[c + i]);
@@ -223,25 +197,25 @@ static int bind_layer(struct binder *b, const char *prefix, int ndim, const int 
     snprintf(name, sizeof name, "%s.bias", prefix);
     const pl_tensor *bias = find(b, name, PL_DT_S32, 1, out_c, 0, 0, 0);
     snprintf(name, sizeof name, "%s.out", prefix);
-    if (b->rc < 0 || bind_act(b, name, out_c, relu, L) < 0) return b->rc;
+    if (b->t.rc < 0 || bind_act(b, name, out_c, relu, L) < 0) return b->t.rc;
     L->w = w->data;
     L->bias = bias->data;
     b->s->n_params += (int64_t)w->count + (int64_t)bias->count;
     if (b->q_used + 2 * (size_t)out_c > b->q_cap)
-        return b->rc = pl_error(PL_E_INTERNAL, "requantisation table too small");
+        return b->t.rc = pl_error(PL_E_INTERNAL, "requantisation table too small");
     L->mult = b->s->qbuf + b->q_used;
     L->shift = L->mult + out_c;
     b->q_used += 2 * (size_t)out_c;
     const float *sc = ws->data;
     for (int o = 0; o < out_c; o++) {
         if (!(sc[o] > 0))
-            return b->rc = pl_error(PL_E_MODEL,
+            return b->t.rc = pl_error(PL_E_MODEL,
                                     "%s: tensor '%s.wscale': element %d is %g, "
                                     "expected a finite scale > 0",
                                     path, prefix, o, (double)sc[o]);
         const double r = (double)sc[o] / (double)L->out_scale[o];
         if (pl_quantize_multiplier(r, &L->mult[o], &L->shift[o]) < 0)
-            return b->rc = pl_error(PL_E_MODEL,
+            return b->t.rc = pl_error(PL_E_MODEL,
                                     "%s: layer '%s' output channel %d: requantisation "
                                     "scale %g (wscale / output scale) out of range, expected "
                                     "< 2^30",
@@ -277,10 +251,7 @@ static void conv_params(struct s8_layer *L, int32_t in_zp, int relu, int stride,
 
 static const float *bind_f32(struct binder *b, const char *name, int ndim, int d0, int d1)
 {
-    const pl_tensor *t = find(b, name, PL_DT_F32, ndim, d0, d1, 0, 0);
-    if (!t) return NULL;
-    b->s->n_params += (int64_t)t->count;
-    return t->data;
+    return pl_bind_f32(&b->t, name, ndim, d0, d1, 0, 0); /* counted in b->t.params */
 }
 
 /* f32 [n] per-row weight scales, each finite and > 0. */
@@ -289,7 +260,7 @@ static const float *bind_scales(struct binder *b, const char *name, int n)
     const float *sc = bind_f32(b, name, 1, n, 0);
     for (int i = 0; sc && i < n; i++)
         if (!(sc[i] > 0) || sc[i] > 1e9f) {
-            b->rc = pl_error(PL_E_MODEL,
+            b->t.rc = pl_error(PL_E_MODEL,
                              "%s: tensor '%s': element %d is %g, expected a finite scale in "
                              "(0, 1e9]",
                              b->s->file->path, name, i, (double)sc[i]);
@@ -300,7 +271,7 @@ static const float *bind_scales(struct binder *b, const char *name, int n)
 
 static int bind_all(pl_s8 *s)
 {
-    struct binder bb = {.s = s};
+    struct binder bb = {.t = {.file = s->file, .missing_note = " (int8 model)"}, .s = s};
     struct binder *b = &bb;
     const pl_net_shape *sh = &s->sh;
     const pl_plm *f = s->file;
@@ -314,7 +285,7 @@ static int bind_all(pl_s8 *s)
 
     /* stem: the u8 input with its pad pixel, conv0 + ReLU, max pool into block 1 */
     const pl_tensor *in = find(b, "input", PL_DT_U8, 1, 3, 0, 0, 0);
-    if (!in) return b->rc;
+    if (!in) return b->t.rc;
     if (!(in->scale > 0) || in->zero_point != 0)
         return pl_error(PL_E_MODEL,
                         "%s: tensor 'input': scale %g zero point %d, expected a "
@@ -322,7 +293,7 @@ static int bind_all(pl_s8 *s)
                         f->path, (double)in->scale, in->zero_point);
     memcpy(s->pad_px, in->data, 3);
     struct s8_layer *c0 = &s->conv0;
-    if (bind_layer(b, "conv0", 4, (const int[4]){64, 7, 7, 3}, 0, c0) < 0) return b->rc;
+    if (bind_layer(b, "conv0", 4, (const int[4]){64, 7, 7, 3}, 0, c0) < 0) return b->t.rc;
     conv_params(c0, -128, 0, 2, 0); /* ReLU: the quantiser keeps conv0's range >= 0 */
     c0->in = (nn_dims){1, H + 2 * STEM_PAD, W + 2 * STEM_PAD, 3};
     c0->filt = (nn_dims){64, 7, 7, 3};
@@ -339,10 +310,10 @@ static int bind_all(pl_s8 *s)
             D->cin = block_c0[blk] + GROWTH * l;
             snprintf(pre, sizeof pre, "denseblock%d.denselayer%d", blk + 1, l + 1);
             snprintf(name, sizeof name, "%s.clamp", pre);
-            if (bind_clamp(b, name, D->cin, &D->c1.lo, &D->c1.hi) < 0) return b->rc;
+            if (bind_clamp(b, name, D->cin, &D->c1.lo, &D->c1.hi) < 0) return b->t.rc;
             snprintf(name, sizeof name, "%s.conv1", pre);
             if (bind_layer(b, name, 4, (const int[4]){BOTTLENECK, 1, 1, D->cin}, 1, &D->c1) < 0)
-                return b->rc;
+                return b->t.rc;
             conv_params(&D->c1, 0, 1, 1, 0);
             D->c1.in = (nn_dims){1, h, w, D->cin};
             D->c1.filt = (nn_dims){BOTTLENECK, 1, 1, D->cin};
@@ -352,7 +323,7 @@ static int bind_all(pl_s8 *s)
             if (check_layer(s, name, &D->c1, 1) < 0) return PL_E_MODEL;
             snprintf(name, sizeof name, "%s.conv2", pre);
             if (bind_layer(b, name, 4, (const int[4]){GROWTH, 3, 3, BOTTLENECK}, 0, &D->c2) < 0)
-                return b->rc;
+                return b->t.rc;
             conv_params(&D->c2, D->c1.out_zp, 0, 1, 1);
             D->c2.in = (nn_dims){1, h, w, BOTTLENECK};
             D->c2.filt = (nn_dims){GROWTH, 3, 3, BOTTLENECK};
@@ -374,24 +345,24 @@ static int bind_all(pl_s8 *s)
             T->conv.out_stride = cnext;
             if (tw && tw->ndim == 2) { /* kept float (--keep-float transitionN) */
                 const pl_tensor *w8 = find(b, name, PL_DT_S8, 2, ctot / 2, ctot, 0, 0);
-                if (!w8) return b->rc;
+                if (!w8) return b->t.rc;
                 T->w8 = w8->data;
                 b->s->n_params += (int64_t)w8->count;
                 snprintf(name, sizeof name, "transition%d.conv.wscale", blk + 1);
-                if (!(T->ws = bind_scales(b, name, ctot / 2))) return b->rc;
+                if (!(T->ws = bind_scales(b, name, ctot / 2))) return b->t.rc;
                 snprintf(name, sizeof name, "transition%d.norm.dequant", blk + 1);
                 T->deq = bind_f32(b, name, 2, 2, ctot);
                 snprintf(name, sizeof name, "transition%d.conv.out", blk + 1);
-                if (bind_act(b, name, ctot / 2, 0, &T->conv) < 0) return b->rc;
+                if (bind_act(b, name, ctot / 2, 0, &T->conv) < 0) return b->t.rc;
                 const size_t hwp = (size_t)(h / 2) * (size_t)(w / 2);
                 s->tf_in_n = max_sz(s->tf_in_n, hwp * (size_t)ctot);
                 s->tf_out_n = max_sz(s->tf_out_n, hwp * (size_t)(ctot / 2));
             } else {
                 snprintf(name, sizeof name, "transition%d.clamp", blk + 1);
-                if (bind_clamp(b, name, ctot, &T->lo, &T->hi) < 0) return b->rc;
+                if (bind_clamp(b, name, ctot, &T->lo, &T->hi) < 0) return b->t.rc;
                 snprintf(name, sizeof name, "transition%d.conv", blk + 1);
                 if (bind_layer(b, name, 4, (const int[4]){ctot / 2, 1, 1, ctot}, 0, &T->conv) < 0)
-                    return b->rc;
+                    return b->t.rc;
                 conv_params(&T->conv, 0, 0, 1, 0);
                 if (check_layer(s, name, &T->conv, 1) < 0) return PL_E_MODEL;
             }
@@ -399,7 +370,7 @@ static int bind_all(pl_s8 *s)
             w /= 2;
         }
     }
-    if (bind_clamp(b, "norm5.clamp", FEATURES, &s->n5_lo, &s->n5_hi) < 0) return b->rc;
+    if (bind_clamp(b, "norm5.clamp", FEATURES, &s->n5_lo, &s->n5_hi) < 0) return b->t.rc;
     s->n5_deq = bind_f32(b, "norm5.dequant", 2, 2, FEATURES);
     const int zl = FEATURES * sh->bands;
     const pl_tensor *fw = pl_plm_tensor(f, "fc.weight");
@@ -409,14 +380,14 @@ static int bind_all(pl_s8 *s)
         s->fc_bf = bind_f32(b, "fc.bias", 1, sh->fc_n, 0);
     } else if (fbias && fbias->dtype == PL_DT_F32) { /* the same, weights stored int8 */
         const pl_tensor *w8 = find(b, "fc.weight", PL_DT_S8, 2, sh->fc_n, zl, 0, 0);
-        if (!w8) return b->rc;
+        if (!w8) return b->t.rc;
         s->fc_w8 = w8->data;
         s->n_params += (int64_t)w8->count;
-        if (!(s->fc_ws = bind_scales(b, "fc.wscale", sh->fc_n))) return b->rc;
+        if (!(s->fc_ws = bind_scales(b, "fc.wscale", sh->fc_n))) return b->t.rc;
         s->fc_bf = bind_f32(b, "fc.bias", 1, sh->fc_n, 0);
     } else {
         struct s8_layer *F = &s->fc;
-        if (bind_layer(b, "fc", 2, (const int[4]){sh->fc_n, zl, 0, 0}, 1, F) < 0) return b->rc;
+        if (bind_layer(b, "fc", 2, (const int[4]){sh->fc_n, zl, 0, 0}, 1, F) < 0) return b->t.rc;
         conv_params(F, 0, 1, 1, 0);
         F->in = (nn_dims){1, 1, 1, zl};
         F->filt = (nn_dims){sh->fc_n, 1, 1, zl};
@@ -426,24 +397,17 @@ static int bind_all(pl_s8 *s)
         if (rc == PL_OK) rc = nn_quant_s8_check(F->mult, F->shift, sh->fc_n);
         if (rc < 0) return pl_error_prefix(rc, "%s: layer 'fc'", f->path);
     }
-    s->dir_w = bind_f32(b, "head_dir.weight", 2, 3 * N, sh->fc_n);
-    s->dir_b = bind_f32(b, "head_dir.bias", 1, 3 * N, 0);
-    s->size_w = bind_f32(b, "head_size.weight", 2, N, sh->fc_n);
-    s->size_b = bind_f32(b, "head_size.bias", 1, N, 0);
-    s->rgb_w = bind_f32(b, "head_rgb.weight", 2, 3 * N, sh->fc_n);
-    s->rgb_b = bind_f32(b, "head_rgb.bias", 1, 3 * N, 0);
-    s->amb_w = bind_f32(b, "head_ambient.weight", 2, 3, sh->fc_n);
-    s->amb_b = bind_f32(b, "head_ambient.bias", 1, 3, 0);
     const int dh = sh->dist_hidden, dd = zl + 3 * N;
+    s->heads = (pl_heads){.n_lights = N, .fc_n = sh->fc_n, .dist_hidden = dh, .z_len = zl};
+    pl_heads_bind(&b->t, &s->heads);
     const pl_tensor *d1 = find(b, "head_dist.fc1.weight", PL_DT_S8, 2, dh, dd, 0, 0);
     const float *d1s = bind_f32(b, "head_dist.fc1.wscale", 1, dh, 0);
-    s->d1_b = bind_f32(b, "head_dist.fc1.bias", 1, dh, 0);
-    s->d2_w = bind_f32(b, "head_dist.fc2.weight", 2, N, dh);
-    s->d2_b = bind_f32(b, "head_dist.fc2.bias", 1, N, 0);
-    if (b->rc < 0) return b->rc;
-    s->n_params += (int64_t)d1->count;
+    pl_heads_bind_dist(&b->t, &s->heads);
+    if (b->t.rc < 0) return b->t.rc;
+    s->n_params += b->t.params + (int64_t)d1->count;
     s->d1_w = malloc((size_t)dh * (size_t)dd * sizeof(float));
     if (!s->d1_w) return pl_error(PL_E_NOMEM, "out of memory");
+    s->heads.d1_w = s->d1_w;
     const int8_t *d1q = d1->data;
     for (int o = 0; o < dh; o++) {
         if (!(d1s[o] > 0))
@@ -454,7 +418,7 @@ static int bind_all(pl_s8 *s)
         for (int i = 0; i < dd; i++)
             s->d1_w[(size_t)o * dd + i] = d1s[o] * (float)d1q[(size_t)o * dd + i];
     }
-    if ((uint32_t)b->used != f->n_tensors) {
+    if ((uint32_t)b->t.used != f->n_tensors) {
         for (uint32_t i = 0; i < f->n_tensors; i++) {
             const char *n = f->tensors[i].name;
             int known = !strcmp(n, "input") || !strncmp(n, "conv0.", 6) ||
@@ -466,7 +430,7 @@ static int bind_all(pl_s8 *s)
                                 PL_ARCH_NAME);
         }
         return pl_error(PL_E_MODEL, "%s: %u tensors, the int8 architecture uses %d", f->path,
-                        f->n_tensors, b->used);
+                        f->n_tensors, b->t.used);
     }
     return PL_OK;
 }
@@ -526,12 +490,8 @@ static int pack_all(pl_s8 *s)
         s->k->s8.pack(&L[i]->pc, L[i]->w, L[i]->bias, p);
         p += (pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout) + 63) & ~(size_t)63;
     }
-    for (int i = 0; i < MAX_LAYERS; i++) {
-        /* a dense layer's 1x1 writes the 3x3's A: u8, rows w + 2 apart (forward()) */
-        pl_s8_conv *c1 = &s->layers[i].c1.pc;
-        c1->out_xor = 0x80;
-        c1->out_pitch = c1->out_w + 2;
-    }
+    for (int i = 0; i < MAX_LAYERS; i++) /* a dense layer's 1x1 writes the 3x3's A (forward()) */
+        pl_s8_conv_write_a(&s->layers[i].c1.pc, s->layers[i].c2.pc.a_w);
     return PL_OK;
 }
 
@@ -577,20 +537,7 @@ static int plan_arena(pl_s8 *s)
     q += zl;
     s->h = q;
     q += fc;
-    s->out_dir = q;
-    q += 3 * N;
-    s->out_size = q;
-    q += N;
-    s->out_rgb = q;
-    q += 3 * N;
-    s->out_amb = q;
-    q += 3;
-    s->dist_in = q;
-    q += zl + 3 * N;
-    s->dist_h = q;
-    q += s->sh.dist_hidden;
-    s->out_dist = q;
-    q += N;
+    q = pl_heads_place(&s->heads, q);
     s->tf_in = s->tf_in_n ? q : NULL;
     q += s->tf_in_n;
     s->tf_out = s->tf_out_n ? q : NULL;
@@ -736,7 +683,7 @@ static void run_s8(void *ctx, int begin, int end)
     }
     if (j->op == S8_AVGPOOL_P) {
         j->k->avgpool(j->pool, j->in_dims, j->in, j->in_stride, j->lo, j->hi, j->out_dims,
-                      j->a_out, j->out_stride, 0x80, begin, end);
+                      j->a_out, j->out_stride, PL_S8_A_XOR, begin, end);
         if (j->fuse) j->k->run(&L->pc, j->a_out, j->out, L->out_stride, begin, end, 0, L->pc.out_c);
         return;
     }
@@ -857,11 +804,6 @@ static void observe_s8(pl_s8 *s, const char *name, const int8_t *x, int c, int h
     s->observer(s->observer_ctx, name, s->obs_buf, c, h, w, L->out_zps ? s->obs_floor : NULL);
 }
 
-static float softplus(float x)
-{
-    return x > 20.0f ? x : log1pf(expf(x)); /* PyTorch's softplus: beta 1, threshold 20 */
-}
-
 static void fc_f32(pl_pool *pool, const float *in, int n_in, const float *w, const float *b,
                    int n_out, int relu, float *out)
 {
@@ -871,6 +813,13 @@ static void fc_f32(pl_pool *pool, const float *in, int n_in, const float *w, con
     } else {
         nn_fc_f32__ref(in, n_in, w, b, 0, out, 0, n_out);
     }
+}
+
+/* fc_f32 for the heads (model/heads.h); ctx is the pool */
+static void heads_fc(void *ctx, const float *in, int n_in, const float *w, const float *b,
+                     int n_out, int relu, float *out)
+{
+    fc_f32(ctx, in, n_in, w, b, n_out, relu, out);
 }
 
 /* The fc kept float with int8-stored weights: h[o] = relu(ws[o] * (w8[o] . z) + b[o]). */
@@ -968,21 +917,16 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
         for (int l = 0; l < block_layers[b]; l++, li++) {
             const struct s8_dense *D = &s->layers[li];
             if (s->k->s8.packed) {
-                /* the 1x1 writes its output as u8 straight into the interior of the 3x3's
-                 * padded A (pitch w + 2, border = the zero point, set once per block) */
-                const int aw = w + 2;
-                if (l == 0) memset(s->a2, pl_s8_pad_u(D->c2.p.input_offset),
-                                   (size_t)(h + 2) * (size_t)aw * BOTTLENECK);
+                /* the 1x1 writes its output straight into the interior of the 3x3's padded A
+                 * (kernels/kernels_s8.h; the border, the zero point, is set once per block) */
+                if (l == 0) pl_s8_a_fill_pad(&D->c2.pc, s->a2);
                 layer_packed(s, pool, &D->c1, cur, D->c1.lo, D->c1.hi,
-                             (int8_t *)s->a2 + ((size_t)aw + 1) * BOTTLENECK);
+                             (int8_t *)pl_s8_a_at(&D->c2.pc, s->a2, 1, 1));
                 pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
                 run_packed(pool, &s->k->s8, &D->c2, s->a2, cur + D->cin);
                 pl_prof_mark(s->prof, PL_PROF_DENSE3 + 2 * b, &t);
                 if (s->observer) /* the observer reads the bottleneck as s8 in T */
-                    for (int y = 0; y < h; y++)
-                        for (int i = 0; i < w * BOTTLENECK; i++)
-                            s->t[(size_t)y * w * BOTTLENECK + (size_t)i] = (int8_t)(
-                                s->a2[((size_t)(y + 1) * aw + 1) * BOTTLENECK + (size_t)i] ^ 0x80);
+                    pl_s8_a_read_s8(&D->c2.pc, s->a2, 1, 1, h, w, s->t);
             } else {
                 layer(s, pool, S8_CONV1X1_CLAMP, &D->c1, cur, s->t);
                 pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
@@ -1087,7 +1031,7 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
     pl_prof_mark(s->prof, PL_PROF_NORM5, &t);
     if (s->observer) s->observer(s->observer_ctx, "z", s->z, s->z_len, 1, 1, NULL);
 
-    const int N = s->sh.n_lights, fcn = s->sh.fc_n;
+    const int fcn = s->sh.fc_n;
     if (s->fc_wf) {
         fc_f32(pool, s->z, s->z_len, s->fc_wf, s->fc_bf, fcn, 1, s->h);
     } else if (s->fc_w8) {
@@ -1099,30 +1043,7 @@ static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
     }
     if (s->observer) s->observer(s->observer_ctx, "fc", s->h, fcn, 1, 1, NULL);
 
-    fc_f32(pool, s->h, fcn, s->dir_w, s->dir_b, 3 * N, 0, s->out_dir);
-    fc_f32(pool, s->h, fcn, s->size_w, s->size_b, N, 0, s->out_size);
-    fc_f32(pool, s->h, fcn, s->rgb_w, s->rgb_b, 3 * N, 0, s->out_rgb);
-    fc_f32(pool, s->h, fcn, s->amb_w, s->amb_b, 3, 0, s->out_amb);
-    for (int i = 0; i < N; i++) { /* F.normalize(eps=1e-12), as model/net.c */
-        float *d = s->out_dir + 3 * i;
-        const float nn = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const float inv = 1.0f / (nn > 1e-12f ? nn : 1e-12f);
-        d[0] *= inv;
-        d[1] *= inv;
-        d[2] *= inv;
-    }
-    for (int i = 0; i < N; i++)
-        s->out_size[i] = softplus(s->out_size[i]);
-    for (int i = 0; i < 3 * N; i++)
-        s->out_rgb[i] = softplus(s->out_rgb[i]);
-    for (int i = 0; i < 3; i++)
-        s->out_amb[i] = softplus(s->out_amb[i]);
-    memcpy(s->dist_in, s->z, (size_t)s->z_len * sizeof(float));
-    memcpy(s->dist_in + s->z_len, s->out_dir, (size_t)(3 * N) * sizeof(float));
-    fc_f32(pool, s->dist_in, s->z_len + 3 * N, s->d1_w, s->d1_b, s->sh.dist_hidden, 1, s->dist_h);
-    fc_f32(pool, s->dist_h, s->sh.dist_hidden, s->d2_w, s->d2_b, N, 0, s->out_dist);
-    for (int i = 0; i < N; i++)
-        s->out_dist[i] = softplus(s->out_dist[i]);
+    pl_heads_run(&s->heads, s->z, s->h, heads_fc, pool);
     pl_prof_mark(s->prof, PL_PROF_HEADS, &t);
 }
 
@@ -1170,14 +1091,5 @@ void pl_s8_estimate(pl_s8 *s, pl_pool *pool, const uint8_t *rgb, int width, int 
     pl_prof_mark(s->prof, PL_PROF_PRE, &pt);
     forward(s, pool, pt);
 
-    memset(out, 0, sizeof *out);
-    out->n_lights = s->sh.n_lights;
-    for (int i = 0; i < s->sh.n_lights; i++) {
-        pl_light *L = &out->lights[i];
-        memcpy(L->dir, s->out_dir + 3 * i, sizeof L->dir);
-        memcpy(L->rgb, s->out_rgb + 3 * i, sizeof L->rgb);
-        L->distance_m = s->out_dist[i];
-        L->solid_angle_sr = s->out_size[i];
-    }
-    memcpy(out->ambient, s->out_amb, sizeof out->ambient);
+    pl_heads_lighting(&s->heads, out);
 }

@@ -1,5 +1,5 @@
 /* The int8 executor of densenet121-parametric (docs/QUANT.md "DenseNet folding", docs/FORMAT.md
- * "int8 models"). Private to model/: pl_model_load (model/net.c) parses the shared metadata and
+ * "int8 models"). Private to model/: pl_model_load (model/model.c) parses the shared metadata and
  * hands an int8 file here; the public API functions delegate to these.
  *
  * pl_s8_load validates every int8 tensor (names, dtypes, shapes, quantisation parameters), turns
@@ -11,12 +11,12 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/threads.h"
 #include "model/arch.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/profile.h"
 #include "parlight.h"
-#include "port/threads.h"
 
 typedef struct pl_s8 pl_s8;
 

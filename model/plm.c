@@ -11,7 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 static uint32_t crc_table[8][256];
 

@@ -3,7 +3,7 @@
  * pl_plm_open checks everything the format promises before returning: header fields, metadata
  * text, every table entry (name, dtype, shape, size, alignment, bounds, overlap), the CRC-32 and
  * the finiteness of float data. After it succeeds, tensor data can be used without further
- * checks; what a tensor's shape must be for the architecture is checked by the graph (model/net.c).
+ * checks; what a tensor's shape must be for the architecture is checked by the executors (model/binder.h).
  * The file is mapped read-only; tensors point into the mapping and live until pl_plm_close. */
 #ifndef PL_MODEL_PLM_H
 #define PL_MODEL_PLM_H

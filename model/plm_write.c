@@ -6,7 +6,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 struct wtensor {
     char name[PL_PLM_NAME_MAX];

@@ -1,6 +1,6 @@
 /* Where a frame's time goes: wall time per stage of the network, summed over frames, for
  * `parlight bench --layers` (docs/PERFORMANCE.md "Where the time goes"). Private to the app and
- * model/: both executors (model/net.c fp32, model/net_s8.c int8) add to it when one is set.
+ * model/: both executors (model/net_f32.c fp32, model/net_s8.c int8) add to it when one is set.
  *
  * A stage's time runs from the end of the previous stage to the end of its own last kernel call,
  * so the stages add up to the frame's time (the preprocessing is PL_PROF_PRE). Reading the

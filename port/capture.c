@@ -7,7 +7,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 /* One frame buffer: pixels plus the frame's metadata, owned by the capture. */
 struct slot {

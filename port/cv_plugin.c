@@ -5,10 +5,10 @@
  * port/image_codec.h, port/video_cv.h, port/test_helpers.h). */
 #ifdef PL_OPENCV_PLUGIN
 
+#include "core/util.h"
 #include "port/image_codec.h"
 #include "port/plugin.h"
 #include "port/test_helpers.h"
-#include "port/util.h"
 #include "port/video_cv.h"
 
 #include <string.h>

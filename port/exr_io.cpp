@@ -24,8 +24,8 @@
 #include <vector>
 
 extern "C" {
+#include "core/util.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
 }
 
 namespace
@@ -216,8 +216,8 @@ extern "C" int pl_exr_write_file(const char *path, const pl_image_f32 *img, pl_e
 #else // !PL_HAVE_OPENEXR
 
 extern "C" {
+#include "core/util.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
 }
 
 extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 /* Whole files are read into memory; RGBE files above this size are refused (a 32768 x 8192
  * flat file is 1 GiB). */

@@ -23,8 +23,8 @@
 #ifndef PL_PORT_HDR_IO_H
 #define PL_PORT_HDR_IO_H
 
+#include "core/image.h"
 #include "parlight.h"
-#include "port/image.h"
 
 #ifdef __cplusplus
 extern "C" {

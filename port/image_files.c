@@ -4,11 +4,11 @@
  * the first scan; BMP: all pixel rows present), and only then a decoder runs: libjpeg / libpng
  * directly for JPEG and PNG (port/jpeg_codec.c, port/png_codec.c), OpenCV for the other formats
  * (port/image_io.cpp) when this build has it. See port/image_codec.h and docs/PORTING.md. */
+#include "core/util.h"
 #include "port/image.h"
 #include "port/image_codec.h"
 #include "port/image_jpeg.h"
 #include "port/image_mem.h"
-#include "port/util.h"
 
 #include <ctype.h>
 #include <errno.h>

@@ -22,10 +22,10 @@
 #include <unistd.h>
 
 extern "C" {
+#include "core/image.h"
+#include "core/util.h"
 #include "port/cv_log.h"
-#include "port/image.h"
 #include "port/image_codec.h"
-#include "port/util.h"
 }
 
 namespace
@@ -216,9 +216,9 @@ extern "C" int pl_cv_image_write_rgb8(const char *path, const pl_image_u8 *img)
 #else // !PL_HAVE_OPENCV
 
 extern "C" {
+#include "core/util.h"
 #include "port/cv_log.h"
 #include "port/image_codec.h"
-#include "port/util.h"
 }
 
 extern "C" void pl_cv_log_quiet_enter(void) {}

@@ -1,8 +1,8 @@
 /* JPEG through libjpeg(-turbo) directly (port/image_codec.h): decode with OpenCV 4.6's settings
  * (default IDCT, fancy upsampling, RGB output, EXIF orientation), encode as OpenCV's imwrite.
  * libjpeg reports errors through error_exit: it longjmps back here, nothing is printed. */
+#include "core/util.h"
 #include "port/image_codec.h"
-#include "port/util.h"
 
 #include <string.h>
 

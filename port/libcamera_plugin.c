@@ -4,9 +4,9 @@
  * cameras are listed. Contracts: port/libcamera_src.h. */
 #ifdef PL_LIBCAMERA_PLUGIN
 
+#include "core/util.h"
 #include "port/libcamera_src.h"
 #include "port/plugin.h"
-#include "port/util.h"
 
 #include <string.h>
 

@@ -4,8 +4,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "port/image.h"
-#include "port/util.h"
+#include "core/image.h"
+#include "core/util.h"
 
 void pl_yuv_coeffs_init(pl_yuv_coeffs *c, pl_yuv_matrix matrix, pl_yuv_range range)
 {

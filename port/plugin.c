@@ -1,6 +1,6 @@
 /* Loading plugins on first use (port/plugin.h). */
+#include "core/util.h"
 #include "port/plugin.h"
-#include "port/util.h"
 
 #include <dlfcn.h>
 #include <limits.h>

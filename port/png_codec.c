@@ -1,8 +1,8 @@
 /* PNG through libpng directly (port/image_codec.h), with the transformations OpenCV 4.6's
  * IMREAD_UNCHANGED decoder asks for, then parlight's 16->8-bit rule and RGB output; the writer
  * uses OpenCV's default settings. libpng errors longjmp back here; warnings are not printed. */
+#include "core/util.h"
 #include "port/image_codec.h"
-#include "port/util.h"
 
 #include <string.h>
 

@@ -1,5 +1,5 @@
-/* Output sinks: spec parsing, stdout, UDP, events, several sinks (port/sink.h). The TCP and Unix
- * stream servers are in port/sink_server.c. */
+/* Output sinks: spec parsing, stdout, UDP, several sinks (port/sink.h). The TCP and Unix
+ * stream servers are in port/sink_server.c, the event queue both use in port/sink_event.c. */
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netdb.h>
@@ -14,44 +14,10 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/sink_internal.h"
-#include "port/util.h"
 
 #define SPEC_HELP "expected stdout, -, udp://HOST:PORT, tcp://HOST:PORT or unix:PATH"
-
-void sink_event(pl_sink *s, const char *fmt, ...)
-{
-    if (s->ev_count == SINK_EVENTS) {
-        s->ev_head = (s->ev_head + 1) % SINK_EVENTS;
-        s->ev_count--;
-        s->ev_lost++;
-    }
-    char *m = s->events[(s->ev_head + s->ev_count) % SINK_EVENTS];
-    int n = snprintf(m, PL_SINK_EVENT_MAX, "%s: ", s->spec);
-    if (n < 0 || n >= PL_SINK_EVENT_MAX) n = 0;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(m + n, PL_SINK_EVENT_MAX - (size_t)n, fmt, ap);
-    va_end(ap);
-    s->ev_count++;
-}
-
-void sink_format_addr(const void *sockaddr, char *out, size_t cap)
-{
-    const struct sockaddr *sa = sockaddr;
-    char ip[INET6_ADDRSTRLEN] = "?";
-    if (sa->sa_family == AF_INET) {
-        const struct sockaddr_in *in = sockaddr;
-        inet_ntop(AF_INET, &in->sin_addr, ip, sizeof ip);
-        snprintf(out, cap, "%s:%u", ip, (unsigned)ntohs(in->sin_port));
-    } else if (sa->sa_family == AF_INET6) {
-        const struct sockaddr_in6 *in6 = sockaddr;
-        inet_ntop(AF_INET6, &in6->sin6_addr, ip, sizeof ip);
-        snprintf(out, cap, "[%s]:%u", ip, (unsigned)ntohs(in6->sin6_port));
-    } else {
-        snprintf(out, cap, "unix");
-    }
-}
 
 /* ---- spec parsing --------------------------------------------------------------------------- */
 

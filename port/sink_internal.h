@@ -1,5 +1,6 @@
-/* Shared by port/sink.c (specs, stdout, udp, events, several sinks) and port/sink_server.c
- * (the tcp and unix stream servers). Not part of any public interface. */
+/* Shared by port/sink.c (specs, stdout, udp, several sinks), port/sink_server.c (the tcp and
+ * unix stream servers) and port/sink_event.c (the event queue, addresses). Not part of any
+ * public interface. */
 #ifndef PL_PORT_SINK_INTERNAL_H
 #define PL_PORT_SINK_INTERNAL_H
 
@@ -53,7 +54,7 @@ typedef struct sink_spec {
     char path[sizeof(((struct sockaddr_un *)0)->sun_path)];
 } sink_spec;
 
-/* Queues "<spec>: <message>" for pl_sink_next_event. */
+/* Queues "<spec>: <message>" for pl_sink_next_event (port/sink_event.c). */
 void sink_event(pl_sink *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 int sink_server_open_tcp(pl_sink *s, const sink_spec *sp);
@@ -61,7 +62,7 @@ int sink_server_open_unix(pl_sink *s, const sink_spec *sp);
 int sink_server_write(pl_sink *s, const char *line, size_t len);
 void sink_server_close(pl_sink *s);
 
-/* "1.2.3.4:5" / "[::1]:5" for an IPv4/IPv6 socket address. */
+/* "1.2.3.4:5" / "[::1]:5" for an IPv4/IPv6 socket address (port/sink_event.c). */
 void sink_format_addr(const void *sockaddr, char *out, size_t cap);
 
 #endif

@@ -14,8 +14,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/sink_internal.h"
-#include "port/util.h"
 
 #define ACCEPTS_PER_WRITE 64
 #define READ_CHUNKS_PER_WRITE 8

@@ -11,8 +11,9 @@
 #include <strings.h>
 #include <sys/stat.h>
 
+#include "core/util.h"
+#include "port/image.h"
 #include "port/libcamera_src.h"
-#include "port/util.h"
 #include "port/v4l2.h"
 #include "port/video_cv.h"
 

@@ -9,8 +9,8 @@
 #include <string.h>
 
 extern "C" {
+#include "core/util.h"
 #include "parlight.h"
-#include "port/util.h"
 }
 #include "port/image_mem.h"
 #include "port/pixfmt.h"

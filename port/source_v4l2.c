@@ -21,9 +21,9 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/image_mem.h"
 #include "port/pixfmt.h"
-#include "port/util.h"
 
 /* The formats parlight reads, in the order chosen when the spec names none. */
 static const struct {

@@ -9,8 +9,8 @@
 #include <cstring>
 
 extern "C" {
+#include "core/util.h"
 #include "port/test_helpers.h"
-#include "port/util.h"
 }
 
 extern "C" int pl_test_write_image(const char *path, int width, int height, int channels, int depth,
@@ -60,8 +60,8 @@ extern "C" int pl_test_write_video(const char *path, const char *fourcc, double 
 #else // !PL_HAVE_OPENCV
 
 extern "C" {
+#include "core/util.h"
 #include "port/test_helpers.h"
-#include "port/util.h"
 }
 
 extern "C" int pl_test_write_image(const char *path, int, int, int, int, const void *)

@@ -16,7 +16,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "port/image.h"
+#include "core/image.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -12,8 +12,8 @@
 #include <string>
 
 extern "C" {
+#include "core/util.h"
 #include "port/cv_log.h"
-#include "port/util.h"
 #include "port/video_cv.h"
 }
 
@@ -174,7 +174,7 @@ extern "C" void pl_video_close(pl_video *v)
 #else // !PL_HAVE_OPENCV
 
 extern "C" {
-#include "port/util.h"
+#include "core/util.h"
 #include "port/video_cv.h"
 }
 

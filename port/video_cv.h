@@ -5,7 +5,7 @@
 
 #include <stdint.h>
 
-#include "port/image.h"
+#include "core/image.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -3,7 +3,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 #define B PL_HIST_BINS
 

@@ -2,7 +2,7 @@
 
 #include <math.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 int pl_qparams_from_range(double lo, double hi, int relu, pl_qparams *q)
 {

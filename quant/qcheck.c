@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
-#include "port/util.h"
 
 #define ENV_W 128
 

@@ -6,13 +6,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "model/arch.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/plm_write.h"
 #include "parlight.h"
 #include "port/source.h"
-#include "port/util.h"
 #include "quant/fold.h"
 
 /* The activations the int8 graph quantises, in execution order (model/observer.h names). */

@@ -11,9 +11,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "model/arch.h"
-#include "port/util.h"
 
 static uint64_t rng = 0x243f6a8885a308d3ULL;
 static uint32_t rnd(void)

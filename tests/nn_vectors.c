@@ -22,9 +22,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "core/json.h"
+#include "core/util.h"
 #include "kernels/ref/nn_ref_s8.h"
-#include "port/json.h"
-#include "port/util.h"
 
 #define MAX_DEPTH 16 /* directory nesting (also stops symlink loops) */
 

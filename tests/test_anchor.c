@@ -7,9 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
 #include "light_test.h"
-#include "port/util.h"
 
 static double lum3(const float c[3])
 {

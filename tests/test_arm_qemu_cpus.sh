@@ -57,6 +57,6 @@ done
 [ "$(wc -l <"$T/i8mm.jsonl")" -eq 1 ] || fail "i8mm: $(wc -l <"$T/i8mm.jsonl") lines, expected 1"
 cmp -s <(strip "$T/ref.jsonl") <(strip "$T/i8mm.jsonl") ||
     fail "-cpu max: PARLIGHT_ISA=i8mm differs from ref"
-PARLIGHT_ISA=i8mm on_cpu max "$REAL/parlight" info --model "$Q" | grep -q "nn_conv_packed_s8__i8mm" ||
-    fail "info under i8mm does not name nn_conv_packed_s8__i8mm"
+PARLIGHT_ISA=i8mm on_cpu max "$REAL/parlight" info --model "$Q" | grep -q "nn_conv_packed_s8_4x16c8__neoni8mm" ||
+    fail "info under i8mm does not name nn_conv_packed_s8_4x16c8__neoni8mm"
 echo "-cpu max: i8mm estimate identical to ref (96x128, one frame)"

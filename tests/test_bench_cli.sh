@@ -53,7 +53,7 @@ echo "ok  text output"
 /usr/bin/python3 - "$T" "$frame" <<'PY' || fail "json check"
 import json, os, sys
 t, frame = sys.argv[1], sys.argv[2]
-isas = {"ref", "avx2", "avxvnni", "avx512vnni", "amx", "neon", "dotprod", "i8mm"}
+isas = {"ref", "avx2", "avxvnni", "avx512f", "avx512vnni", "amx", "neon", "dotprod", "i8mm"}
 def load(name):
     lines = open(os.path.join(t, name)).read().splitlines()
     assert len(lines) == 1, f"{name}: {len(lines)} lines, expected one JSON object"

@@ -9,13 +9,14 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "core/util.h"
 #include "light/crop.h"
 #include "light/equirect.h"
 #include "light/extract.h"
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
+#include "port/image.h"
 #include "tests/check.h"
 
 static void dir_of(double yaw_deg, double pitch_deg, float d[3])

@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/crop.h"
 #include "light/eval.h"
 #include "light/extract.h"
 #include "light/light.h"
-#include "port/util.h"
 #include "light_test.h"
 
 static void test_quartiles(void)

@@ -7,9 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/extract.h"
 #include "light/light.h"
-#include "port/util.h"
 #include "tests/check.h"
 
 static unsigned rng = 2024;

@@ -19,10 +19,10 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "core/util.h"
 #include "light/extract.h"
 #include "light/light.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
 
 #define MAX_PANOS 256
 #define SIZE 64

@@ -9,8 +9,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "core/util.h"
 #include "port/hdr_io.h"
-#include "port/util.h"
 #include "tests/check.h"
 
 static char tmpdir[512];

@@ -4,10 +4,10 @@
  * JPEG; gray, gray+alpha, palette with tRNS, interlaced, 16-bit PNG). Also the writers: what
  * they write reads back exactly (PNG) or close (JPEG).
  * Skips (77) when the build lacks libjpeg, libpng or OpenCV: it needs both sides. */
+#include "core/util.h"
 #include "port/image.h"
 #include "port/image_codec.h"
 #include "port/test_helpers.h"
-#include "port/util.h"
 
 #include <dirent.h>
 #include <stdio.h>

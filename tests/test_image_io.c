@@ -10,9 +10,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/image.h"
 #include "port/test_helpers.h"
-#include "port/util.h"
 #include "tests/check.h"
 
 static char tmpdir[512];

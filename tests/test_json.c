@@ -8,10 +8,10 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "core/json.h"
+#include "core/util.h"
 #include "light/lights_json.h"
 #include "light_test.h"
-#include "port/json.h"
-#include "port/util.h"
 
 static int parse(const char *s, pl_json_doc *d)
 {

@@ -15,10 +15,10 @@
 
 #include <math.h>
 
+#include "core/util.h"
 #include "kernels/ref/nn_ref.h"
 #include "kernels/ref/nn_ref_s8.h"
-#include "port/util.h"
-#include "quant/requant.h"
+#include "kernels/requant.h"
 #define CHECK_RNG_SEED 0x2545f4914f6cdd1dULL
 #include "tests/check.h"
 

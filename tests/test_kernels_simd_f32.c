@@ -25,9 +25,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
-#include "port/util.h"
 #define CHECK_RNG_SEED 0x2545f4914f6cdd1dULL
 #include "tests/check.h"
 
@@ -542,8 +542,8 @@ static double network_shapes(const pl_kernels_f32 *t, const char *isa)
 
 int main(void)
 {
-    const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI, PL_ISA_AMX,
-                            PL_ISA_NEON, PL_ISA_DOTPROD, PL_ISA_I8MM};
+    const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512F, PL_ISA_AVX512VNNI,
+                            PL_ISA_AMX,  PL_ISA_NEON,    PL_ISA_DOTPROD, PL_ISA_I8MM};
     int ran = 0;
     for (size_t pi = 0; pi < sizeof paths / sizeof paths[0]; pi++) {
         const char *isa = pl_isa_name(paths[pi]);
@@ -557,7 +557,7 @@ int main(void)
             continue;
         }
         /* a path whose fp32 kernels are all those of a path tested above (the Arm paths share
-         * NEON's, avxvnni has avx2's) is not tested twice */
+         * NEON's, avxvnni has avx2's, avx512vnni avx512f's) is not tested twice */
         int same = -1;
         for (size_t qi = 0; qi < pi && same < 0; qi++) {
             pl_kernels q;

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "port/pixfmt.h"
-#include "port/util.h"
 #include "tests/check.h"
 
 /* The formula of port/pixfmt.h in double precision, rounded and clamped. */

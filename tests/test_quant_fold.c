@@ -22,11 +22,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "kernels/ref/nn_ref_s8.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
-#include "port/util.h"
+#include "kernels/requant.h"
 #include "quant/fold.h"
-#include "quant/requant.h"
 #include "tests/check.h"
 
 static double urand(double lo, double hi)

@@ -4,9 +4,9 @@
  * direction by the predicted angle; ambient and colour are unchanged; p at a light is an error. */
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
 #include "light_test.h"
-#include "port/util.h"
 
 static pl_lighting two_lights(void)
 {

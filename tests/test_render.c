@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
 #include "light_test.h"
-#include "port/util.h"
 
 static double rel_rmse(const pl_image_f32 *a, const pl_image_f32 *b)
 {

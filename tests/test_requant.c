@@ -1,4 +1,4 @@
-/* quant/requant: the gemmlowp primitives and TFLite's MultiplyByQuantizedMultiplier at the
+/* kernels/requant: the gemmlowp primitives and TFLite's MultiplyByQuantizedMultiplier at the
  * boundaries (every power of two of the accumulator and its neighbours, both signs, INT32_MIN /
  * INT32_MAX, rounding ties, multipliers 2^30 .. 2^31-1, every shift in [-31, 30]) against a
  * reference written from the definition in exact long-double arithmetic (not by calling the
@@ -8,8 +8,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "port/util.h"
-#include "quant/requant.h"
+#include "core/util.h"
+#include "kernels/requant.h"
 #include "tests/check.h"
 
 /* --- Reference, from the definition ---------------------------------------------------------

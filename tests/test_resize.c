@@ -7,8 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/image.h"
-#include "port/util.h"
+#include "core/image.h"
+#include "core/util.h"
+#include "model/resize.h"
 #include "tests/check.h"
 
 /* Weight of source pixel j (width 1) for output i along an axis, brute force in doubles. */

@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "check.h"
+#include "core/json.h"
+#include "core/util.h"
 #include "light/light.h"
 #include "light/ridge.h"
-#include "port/json.h"
-#include "port/util.h"
-#include "check.h"
 
 #define GOLDEN_DIR "tests/data/ridge"
 

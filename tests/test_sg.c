@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/equirect.h"
 #include "light/light.h"
 #include "light_test.h"
-#include "port/util.h"
 
 /* int over the sphere of the lights' radiance, by quadrature in a frame around light 0's axis
  * (fine in the angle from the axis, so sharp lobes are resolved). */

@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
 #include "light_test.h"
-#include "port/util.h"
 
 /* Real SH basis in WebXR order, written from the spherical-coordinate definitions
  * (Y_lm = K_lm P_l^|m|(cos theta) trig(m phi), theta from +z, phi from +x), not copied from

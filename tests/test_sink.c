@@ -19,8 +19,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "port/sink.h"
-#include "port/util.h"
 #include "tests/check.h"
 
 static char tmpdir[512];

@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/util.h"
 #include "light/light.h"
 #include "light/temporal.h"
 #include "light_test.h"
-#include "port/util.h"
 
 static pl_light light_at(double phi, double elev, float r, float g, float b)
 {

@@ -8,11 +8,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/image.h"
+#include "core/image.h"
+#include "core/util.h"
 #include "port/image_jpeg.h"
 #include "port/image_mem.h"
 #include "port/source.h"
-#include "port/util.h"
 #include "port/v4l2.h"
 #include "tests/check.h"
 

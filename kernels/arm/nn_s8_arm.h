@@ -1,6 +1,6 @@
 /* Arm int8 kernels of the packed path (kernels/kernels_s8.h describes the slots and the
  * arithmetic). Each file is compiled with the ISA flags its name ends with (Makefile: __neon
- * none beyond the AArch64 baseline, __dotprod -march=armv8.2-a+dotprod, __i8mm
+ * none beyond the AArch64 baseline, __neondot -march=armv8.2-a+dotprod, __neoni8mm
  * -march=armv8.6-a+dotprod+i8mm); call a kernel only when kernels/isa.h says the CPU has its path.
  *
  * A is the same u8 buffer (x + 128) as on x86, so the A builders, pools and clamp are shared by
@@ -62,12 +62,12 @@ void nn_clamp_s8__neon(const nn_dims *d, int8_t *data, int c_stride, const int8_
 
 /* The packed convolution (pl_s8_run_fn): neon and dotprod need PL_S8_LAYOUT_SDOT packing, i8mm
  * PL_S8_LAYOUT_I8MM. */
-void nn_conv_packed_s8__neon(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
+void nn_conv_packed_s8_1x16c4__neon(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
                              int pix_begin, int pix_end, int oc_begin, int oc_end);
-void nn_conv_packed_s8__dotprod(const pl_s8_conv *c, const uint8_t *a, int8_t *out,
+void nn_conv_packed_s8_4x16c4__neondot(const pl_s8_conv *c, const uint8_t *a, int8_t *out,
                                 int out_c_stride, int pix_begin, int pix_end, int oc_begin,
                                 int oc_end);
-void nn_conv_packed_s8__i8mm(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
+void nn_conv_packed_s8_4x16c8__neoni8mm(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
                              int pix_begin, int pix_end, int oc_begin, int oc_end);
 
 #endif

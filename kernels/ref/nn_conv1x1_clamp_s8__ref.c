@@ -1,6 +1,6 @@
 #include "kernels/ref/nn_ref_s8_clamp.h"
 
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 /* nn_conv1x1_s8__ref with the clamp applied as each input value is read. */
 void nn_conv1x1_clamp_s8__ref(const nn_conv_s8_params *p, const nn_per_channel_quant *q,

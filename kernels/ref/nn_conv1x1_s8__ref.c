@@ -1,6 +1,6 @@
 #include "kernels/ref/nn_ref_s8.h"
 
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 /* A 1x1 convolution is a matrix product over pixels: each output pixel (b, oy, ox) reads input
  * pixel (b, oy*stride_h, ox*stride_w) and dots its in_c channels with each weight row. */

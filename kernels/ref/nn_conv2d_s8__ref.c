@@ -1,6 +1,6 @@
 #include "kernels/ref/nn_ref_s8.h"
 
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 /* Loop order: output pixel, output channel, kernel tap, input channel. With NHWC input and OHWI
  * weights the innermost loop is a contiguous int8 dot product the compiler vectorises; taps

@@ -1,6 +1,6 @@
 #include "kernels/ref/nn_ref_s8.h"
 
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 /* Output channel oc = ic*depth_multiplier + m reads input channel ic = oc / depth_multiplier and
  * weights [ky][kx][oc] (1HWO). Taps outside the input are skipped. */

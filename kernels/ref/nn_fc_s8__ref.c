@@ -1,6 +1,6 @@
 #include "kernels/ref/nn_ref_s8.h"
 
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 void nn_fc_s8__ref(const nn_fc_s8_params *p, const nn_per_channel_quant *q, int batches, int depth,
                    const int8_t *in, int in_stride, const int8_t *weights, const int32_t *bias,

@@ -24,7 +24,7 @@
  *    {n = 1, h = k_h, w = k_w, c = out_c}). fully connected: [out_c][depth].
  *  - bias: int32 [out_c], or NULL for none (the same as zeros). It is at scale s_in * s_w.
  *  - Requantisation: per output channel, multiplier[oc] in [2^30, 2^31) or 0 and shift[oc] in
- *    [-31, 30] (quant/requant.h).
+ *    [-31, 30] (kernels/requant.h).
  *
  * Work split: every kernel computes only output channels [oc_begin, oc_end) (pools: channels
  * [c_begin, c_end)) of every output pixel and touches no other output byte, so a thread pool may

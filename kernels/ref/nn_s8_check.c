@@ -4,8 +4,8 @@
 
 #include <stdio.h>
 
-#include "port/util.h"
-#include "quant/requant.h"
+#include "core/util.h"
+#include "kernels/requant.h"
 
 static int check_range(const char *field, long long v, long long lo, long long hi)
 {

@@ -8,7 +8,7 @@
  * Each tile keeps MR x 2 int32 accumulators in registers, starting from the folded bias, and
  * walks the taps and the groups of 4 input channels: per group it loads the two weight vectors
  * once and broadcasts 4 bytes of A per pixel. Then it requantises exactly as pl_requantize_s8
- * (quant/requant.h), lane by lane:
+ * (kernels/requant.h), lane by lane:
  *   x    = acc << lsh, saturated to int32 when the shift overflows
  *   high = (x * mult + 2^30) >> 31          (64-bit products of the even and odd lanes; the low
  *                                            32 bits of the shifted sum are the same for a

@@ -59,11 +59,11 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "core/util.h"
 #include "parlight.h"
 #include "port/image.h"
 #include "port/pixfmt.h"
 #include "port/source.h"
-#include "port/util.h"
 
 #define EP_ADDR 0x81
 #define PROBE_LEN 26 /* UVC 1.0 probe/commit control */

@@ -1,4 +1,4 @@
-#include "port/json.h"
+#include "core/json.h"
 
 #include <errno.h>
 #include <math.h>
@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 typedef struct parser {
     const char *s;

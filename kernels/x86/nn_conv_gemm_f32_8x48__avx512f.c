@@ -1,4 +1,4 @@
-/* Packed fp32 convolution, AVX-512 (kernels/kernels_f32.h): an 8 x 48 micro-kernel, 24 zmm
+/* Packed fp32 convolution, AVX-512F only (kernels/kernels_f32.h): an 8 x 48 micro-kernel, 24 zmm
  * accumulators, per K step three B loads, eight broadcasts of the weight panel and a prefetch. */
 #include <immintrin.h>
 #include <stddef.h>
@@ -100,7 +100,9 @@ static __attribute__((noinline)) void ukr(int k, const float *a, const float *b,
 static void copy_masked(float *d, const float *s, const int32_t *mask)
 {
     for (int v = 0; v < 3; v++) {
-        const __mmask16 m = _mm512_movepi32_mask(_mm512_load_si512(mask + 16 * v));
+        /* mask lanes are 0 or -1: "< 0" is AVX-512F, where vpmovd2m would need DQ */
+        const __mmask16 m =
+            _mm512_cmplt_epi32_mask(_mm512_load_si512(mask + 16 * v), _mm512_setzero_si512());
         _mm512_store_ps(d + 16 * v, _mm512_maskz_loadu_ps(m, s + 16 * v));
     }
 }
@@ -119,9 +121,9 @@ static void gather_row(float *d, const float *x, const int32_t *tab, int ky, int
     }
 }
 
-#define CONV_GEMM_FN nn_conv_gemm_f32_8x48__avx512vnni
+#define CONV_GEMM_FN nn_conv_gemm_f32_8x48__avx512f
 #include "kernels/nn_conv_gemm_f32_tmpl.h"
 
 /* Winograd F(m x m, 3x3) on the same micro-kernel (kernels/nn_conv_wino_f32_tmpl.h) */
-#define CONV_WINO_FN nn_conv_wino_f32_8x48__avx512vnni
+#define CONV_WINO_FN nn_conv_wino_f32_8x48__avx512f
 #include "kernels/nn_conv_wino_f32_tmpl.h"

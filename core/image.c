@@ -1,10 +1,10 @@
 /* Image buffers: checked sizes, one allocation per image, reuse for per-frame buffers. */
-#include "port/image.h"
+#include "core/image.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 int pl_image_check_size(const char *what, long long width, long long height)
 {

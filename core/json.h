@@ -8,8 +8,8 @@
  * Bounded: input at most PL_JSON_MAX_BYTES, nesting at most PL_JSON_MAX_DEPTH, at most
  * PL_JSON_MAX_VALUES values. Every error is PL_E_FORMAT (PL_E_NOMEM when memory runs out) with a
  * message "<name>: byte <offset> (line L, column C): <what was expected>, found <what>". */
-#ifndef PL_PORT_JSON_H
-#define PL_PORT_JSON_H
+#ifndef PL_CORE_JSON_H
+#define PL_CORE_JSON_H
 
 #include <stddef.h>
 

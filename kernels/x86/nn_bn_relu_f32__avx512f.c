@@ -5,7 +5,7 @@
 
 #include "kernels/x86/nn_f32_x86.h"
 
-void nn_bn_relu_f32__avx512vnni(const float *in, const float *scale, const float *shift, int hw,
+void nn_bn_relu_f32__avx512f(const float *in, const float *scale, const float *shift, int hw,
                           float *out, int c_begin, int c_end)
 {
     for (int c = c_begin; c < c_end; c++) {

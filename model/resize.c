@@ -6,12 +6,13 @@
  * and output i spans [i*src, (i+1)*src) in units of 1/dst source pixel, weights are the overlaps,
  * D = src. Bilinear (src < dst): the sample sits at ((2i+1)*src - dst) / (2*dst) source pixels
  * from pixel 0's centre, weights in units of 1/(2*dst), D = 2*dst, clamped at the edges. */
-#include "port/image.h"
+#include "model/resize.h"
 
 #include <assert.h>
 #include <stdbool.h>
 
-#include "port/util.h"
+#include "core/image.h"
+#include "core/util.h"
 
 void pl_crop_to_aspect(int w, int h, int aw, int ah, int *x0, int *y0, int *cw, int *ch)
 {

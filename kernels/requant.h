@@ -1,4 +1,6 @@
-/* Requantisation: the fixed-point maths of TFLite's int8 scheme, written once.
+/* Requantisation: the fixed-point maths of TFLite's int8 scheme, written once. It sits at the
+ * bottom of kernels/, beside the kernels that use it (as CMSIS-NN keeps arm_nn_requantize in its
+ * support functions), so no kernel reaches up into quant/, the offline tools.
  *
  * Every int8 kernel (reference and SIMD) turns its int32 accumulator into an int8 output with
  * pl_requantize_s8(), which is pl_requantize() (TFLite's MultiplyByQuantizedMultiplier, the
@@ -11,8 +13,8 @@
  * Q31 value in [2^30, 2^31) (or 0 for r = 0) and shift in [-31, 30]; pl_quantize_multiplier()
  * makes that pair from r. A positive shift is a left shift (r >= 1), a negative one a rounding
  * right shift. */
-#ifndef PL_QUANT_REQUANT_H
-#define PL_QUANT_REQUANT_H
+#ifndef PL_KERNELS_REQUANT_H
+#define PL_KERNELS_REQUANT_H
 
 #include <stdint.h>
 

@@ -6,8 +6,8 @@
  * number of threads. Between loops a waiting thread (worker or caller) spins for up to 100 us,
  * then sleeps on a condition variable: a frame's ~130 back-to-back loops never pay a wake-up,
  * and an idle pool burns no CPU. Nothing is allocated per call. */
-#ifndef PL_PORT_THREADS_H
-#define PL_PORT_THREADS_H
+#ifndef PL_CORE_THREADS_H
+#define PL_CORE_THREADS_H
 
 typedef struct pl_pool pl_pool;
 typedef void (*pl_pool_fn)(void *ctx, int begin, int end);

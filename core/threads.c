@@ -1,11 +1,11 @@
-#include "port/threads.h"
+#include "core/threads.h"
 
 #include <pthread.h>
 #include <sched.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 /* How long a thread waits actively before it sleeps on a condition variable: a frame runs ~130
  * loops back to back, and waking a sleeping thread costs tens of microseconds (a futex and an

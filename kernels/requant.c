@@ -1,8 +1,8 @@
-#include "quant/requant.h"
+#include "kernels/requant.h"
 
 #include <math.h>
 
-#include "port/util.h"
+#include "core/util.h"
 
 int pl_quantize_multiplier(double real, int32_t *multiplier, int32_t *shift)
 {

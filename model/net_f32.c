@@ -1,6 +1,8 @@
-/* The densenet121-parametric graph (tools/model.py, docs/FORMAT.md) and its fp32 executor.
+/* The fp32 executor of densenet121-parametric (tools/model.py, docs/FORMAT.md), private to
+ * model/ (model/net_f32.h): the public API (model/model.c) parses the metadata both precisions
+ * share and hands a float file here.
  *
- * pl_model_load validates the file against the architecture (every tensor's name, dtype and
+ * pl_f32net_load validates the file against the architecture (every tensor's name, dtype and
  * shape; nothing missing, nothing extra), then plans one arena:
  *
  *   A  conv0 output, block 2, block 4      (ping)
@@ -22,33 +24,30 @@
  * enough tiles (pl_f32_wino_choose; PARLIGHT_WINOGRAD=0 keeps them direct), with U = G g G^T
  * packed at load in place of the GEMM panels. The GEMM's per-thread scratch (implicit im2col
  * tiles, 46 KiB a thread; Winograd's transformed tiles, 1.1 MB a thread at 192x256) is one more
- * buffer, sized at load for the largest convolution and grown by pl_model_set_threads. The
+ * buffer, sized at load for the largest convolution and grown by pl_f32net_set_threads. The
  * packed weights (~28 MB at 192x256, ~39 MB with Winograd) come on top of the mapped file;
- * pl_model_get_info's arena_bytes counts arena, scratch and packed weights. On the reference path
+ * pl_f32net_memory_bytes counts arena, scratch and packed weights. On the reference path
  * the kernels of kernels/ref/ run as they are. Outputs do not depend on the thread count on
  * either path (each output's summation order is fixed by the kernel and its K).
  *
- * precision=int8 files pass the same metadata checks and are then handed to the int8 executor
- * (model/net_s8.c); the public functions delegate to it. pl_model_set_observer
- * (model/observer.h) reports each layer's output, for calibration and `parlight qcheck`. */
-#include <errno.h>
-#include <math.h>
+ * The observer (model/observer.h, pl_f32net_set_observer) sees each layer's output, for
+ * calibration and `parlight qcheck`. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "core/threads.h"
+#include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref.h"
-#include "light/light.h"
 #include "model/arch.h"
-#include "model/net_s8.h"
+#include "model/binder.h"
+#include "model/heads.h"
+#include "model/net_f32.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/profile.h"
-#include "port/image.h"
-#include "port/threads.h"
-#include "port/util.h"
+#include "model/resize.h"
 
 struct dense_layer {
     int cin;
@@ -62,20 +61,17 @@ struct transition {
     pl_f32_conv conv; /* packed paths */
 };
 
-struct pl_model {
-    pl_plm file;
-    char arch[64], precision[16];
+struct pl_f32net {
+    const pl_plm *file; /* owned by the caller (model/model.c) */
     int n_lights, in_h, in_w, bands, fc_n, dist_hidden;
     float mean[3], std[3];
-    float anchor[3]; /* intensity anchor w, b, gamma (metadata intensity_anchor); w = b = 0: off */
     int64_t n_params;
 
     const float *conv0_w, *conv0_b;
     struct dense_layer layers[MAX_LAYERS];
     struct transition trans[N_BLOCKS - 1];
     const float *n5_scale, *n5_shift, *fc_w, *fc_b;
-    const float *dir_w, *dir_b, *size_w, *size_b, *rgb_w, *rgb_b, *amb_w, *amb_b;
-    const float *d1_w, *d1_b, *d2_w, *d2_b;
+    pl_heads heads; /* model/heads.h: weights in the file, outputs in the arena */
 
     const pl_kernels *kern;
     pl_f32_conv conv0;  /* packed paths */
@@ -87,164 +83,72 @@ struct pl_model {
 
     float *arena;
     size_t arena_floats;
-    float *x_in, *buf_a, *buf_b, *t1, *t2, *z, *h, *out_dir, *out_size, *out_rgb, *out_amb,
-        *dist_in, *dist_h, *out_dist;
+    float *x_in, *buf_a, *buf_b, *t1, *t2, *z, *h;
     int z_len;
-    int have_latent;
-    pl_pool *pool;
-    pl_s8 *s8; /* int8 models: the int8 executor (model/net_s8.c); the fields above stay unused */
+    pl_pool *pool; /* the caller's, for the estimate running */
     pl_layer_observer observer;
     void *observer_ctx;
-    pl_profile *prof; /* pl_model_set_profile, or NULL */
+    pl_profile *prof; /* pl_f32net_set_profile, or NULL */
 };
 
 /* ---- loading ----------------------------------------------------------------------------- */
 
-static int parse_int(const pl_plm *f, const char *key, int lo, int hi, int *out)
+static int bind_tensors(pl_f32net *m)
 {
-    const char *v = pl_plm_meta(f, key);
-    if (!v) return pl_error(PL_E_MODEL, "%s: metadata '%s' missing", f->path, key);
-    char *end;
-    errno = 0;
-    long x = strtol(v, &end, 10);
-    if (errno || end == v || *end || x < lo || x > hi)
-        return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected an integer in %d..%d",
-                        f->path, key, v, lo, hi);
-    *out = (int)x;
-    return PL_OK;
-}
-
-static int parse_float3(const pl_plm *f, const char *key, int positive, float out[3])
-{
-    const char *v = pl_plm_meta(f, key);
-    if (!v) return pl_error(PL_E_MODEL, "%s: metadata '%s' missing", f->path, key);
-    const char *s = v;
-    for (int i = 0; i < 3; i++) {
-        char *end;
-        errno = 0;
-        double x = strtod(s, &end);
-        if (errno || end == s || !isfinite(x) || (positive && !(x > 0)) || fabs(x) > 1e6)
-            goto bad;
-        out[i] = (float)x;
-        s = end;
-        if (i < 2) {
-            if (*s != ',') goto bad;
-            s++;
-        }
-    }
-    if (*s == '\0') return PL_OK;
-bad:
-    return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected three %sfloats a,b,c", f->path,
-                    key, v, positive ? "positive " : "");
-}
-
-/* The optional intensity_anchor=w,b,gamma (docs/FORMAT.md); absent: off (w = b = 0, gamma 2.2). */
-static int parse_anchor(const pl_plm *f, float anchor[3])
-{
-    anchor[0] = anchor[1] = 0, anchor[2] = 2.2f;
-    if (!pl_plm_meta(f, "intensity_anchor")) return PL_OK;
-    int rc = parse_float3(f, "intensity_anchor", 0, anchor);
-    if (rc == PL_OK && pl_anchor_check(anchor[0], anchor[1], anchor[2]) < 0)
-        rc = pl_error_prefix(PL_E_MODEL, "%s: metadata intensity_anchor", f->path);
-    return rc;
-}
-
-/* Looks up `name`, checks it is f32 with exactly the given dims, counts it as used. */
-static const float *expect(pl_model *m, int *used, int *rc, const char *name, int ndim, int d0,
-                           int d1, int d2, int d3)
-{
-    if (*rc < 0) return NULL;
-    const pl_tensor *t = pl_plm_tensor(&m->file, name);
-    const int want[4] = {d0, d1, d2, d3};
-    if (!t) {
-        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' missing", m->file.path, name);
-        return NULL;
-    }
-    if (t->dtype != PL_DT_F32) {
-        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' is %s, expected f32", m->file.path, name,
-                       pl_dtype_name(t->dtype));
-        return NULL;
-    }
-    int ok = t->ndim == ndim;
-    for (int i = 0; ok && i < ndim; i++) ok = t->dims[i] == (uint32_t)want[i];
-    if (!ok) {
-        char got[64], exp[64];
-        int n = 0, k = 0;
-        for (int i = 0; i < t->ndim; i++)
-            n += snprintf(got + n, sizeof got - (size_t)n, "%s%u", i ? "," : "", t->dims[i]);
-        for (int i = 0; i < ndim; i++)
-            k += snprintf(exp + k, sizeof exp - (size_t)k, "%s%d", i ? "," : "", want[i]);
-        *rc = pl_error(PL_E_MODEL, "%s: tensor '%s' has shape [%s], expected [%s]", m->file.path,
-                       name, got, exp);
-        return NULL;
-    }
-    (*used)++;
-    m->n_params += (int64_t)t->count;
-    return t->data;
-}
-
-static int bind_tensors(pl_model *m)
-{
-    int rc = PL_OK, used = 0, N = m->n_lights;
+    pl_binder bd = {.file = m->file, .missing_note = ""};
+    const int N = m->n_lights;
     char name[PL_PLM_NAME_MAX];
-    m->conv0_w = expect(m, &used, &rc, "conv0.weight", 4, 64, 3, 7, 7);
-    m->conv0_b = expect(m, &used, &rc, "conv0.bias", 1, 64, 0, 0, 0);
+    m->conv0_w = pl_bind_f32(&bd, "conv0.weight", 4, 64, 3, 7, 7);
+    m->conv0_b = pl_bind_f32(&bd, "conv0.bias", 1, 64, 0, 0, 0);
     int li = 0;
     for (int b = 0; b < N_BLOCKS; b++) {
         for (int l = 0; l < block_layers[b]; l++, li++) {
             struct dense_layer *L = &m->layers[li];
             L->cin = block_c0[b] + GROWTH * l;
 #define NAME(fmt) (snprintf(name, sizeof name, "denseblock%d.denselayer%d." fmt, b + 1, l + 1), name)
-            L->n1_scale = expect(m, &used, &rc, NAME("norm1.scale"), 1, L->cin, 0, 0, 0);
-            L->n1_shift = expect(m, &used, &rc, NAME("norm1.shift"), 1, L->cin, 0, 0, 0);
-            L->c1_w = expect(m, &used, &rc, NAME("conv1.weight"), 4, BOTTLENECK, L->cin, 1, 1);
-            L->c1_b = expect(m, &used, &rc, NAME("conv1.bias"), 1, BOTTLENECK, 0, 0, 0);
-            L->c2_w = expect(m, &used, &rc, NAME("conv2.weight"), 4, GROWTH, BOTTLENECK, 3, 3);
+            L->n1_scale = pl_bind_f32(&bd, NAME("norm1.scale"), 1, L->cin, 0, 0, 0);
+            L->n1_shift = pl_bind_f32(&bd, NAME("norm1.shift"), 1, L->cin, 0, 0, 0);
+            L->c1_w = pl_bind_f32(&bd, NAME("conv1.weight"), 4, BOTTLENECK, L->cin, 1, 1);
+            L->c1_b = pl_bind_f32(&bd, NAME("conv1.bias"), 1, BOTTLENECK, 0, 0, 0);
+            L->c2_w = pl_bind_f32(&bd, NAME("conv2.weight"), 4, GROWTH, BOTTLENECK, 3, 3);
 #undef NAME
         }
         if (b < N_BLOCKS - 1) {
             struct transition *T = &m->trans[b];
             T->cin = block_c0[b] + GROWTH * block_layers[b];
             snprintf(name, sizeof name, "transition%d.norm.scale", b + 1);
-            T->scale = expect(m, &used, &rc, name, 1, T->cin, 0, 0, 0);
+            T->scale = pl_bind_f32(&bd, name, 1, T->cin, 0, 0, 0);
             snprintf(name, sizeof name, "transition%d.norm.shift", b + 1);
-            T->shift = expect(m, &used, &rc, name, 1, T->cin, 0, 0, 0);
+            T->shift = pl_bind_f32(&bd, name, 1, T->cin, 0, 0, 0);
             snprintf(name, sizeof name, "transition%d.conv.weight", b + 1);
-            T->w = expect(m, &used, &rc, name, 4, T->cin / 2, T->cin, 1, 1);
+            T->w = pl_bind_f32(&bd, name, 4, T->cin / 2, T->cin, 1, 1);
         }
     }
     const int feat = 1024, zl = feat * m->bands, H = m->dist_hidden;
-    m->n5_scale = expect(m, &used, &rc, "norm5.scale", 1, feat, 0, 0, 0);
-    m->n5_shift = expect(m, &used, &rc, "norm5.shift", 1, feat, 0, 0, 0);
-    m->fc_w = expect(m, &used, &rc, "fc.weight", 2, m->fc_n, zl, 0, 0);
-    m->fc_b = expect(m, &used, &rc, "fc.bias", 1, m->fc_n, 0, 0, 0);
-    m->dir_w = expect(m, &used, &rc, "head_dir.weight", 2, 3 * N, m->fc_n, 0, 0);
-    m->dir_b = expect(m, &used, &rc, "head_dir.bias", 1, 3 * N, 0, 0, 0);
-    m->size_w = expect(m, &used, &rc, "head_size.weight", 2, N, m->fc_n, 0, 0);
-    m->size_b = expect(m, &used, &rc, "head_size.bias", 1, N, 0, 0, 0);
-    m->rgb_w = expect(m, &used, &rc, "head_rgb.weight", 2, 3 * N, m->fc_n, 0, 0);
-    m->rgb_b = expect(m, &used, &rc, "head_rgb.bias", 1, 3 * N, 0, 0, 0);
-    m->amb_w = expect(m, &used, &rc, "head_ambient.weight", 2, 3, m->fc_n, 0, 0);
-    m->amb_b = expect(m, &used, &rc, "head_ambient.bias", 1, 3, 0, 0, 0);
-    m->d1_w = expect(m, &used, &rc, "head_dist.fc1.weight", 2, H, zl + 3 * N, 0, 0);
-    m->d1_b = expect(m, &used, &rc, "head_dist.fc1.bias", 1, H, 0, 0, 0);
-    m->d2_w = expect(m, &used, &rc, "head_dist.fc2.weight", 2, N, H, 0, 0);
-    m->d2_b = expect(m, &used, &rc, "head_dist.fc2.bias", 1, N, 0, 0, 0);
-    if (rc < 0) return rc;
-    if ((uint32_t)used != m->file.n_tensors) {
-        for (uint32_t i = 0; i < m->file.n_tensors; i++) {
-            const char *n = m->file.tensors[i].name;
+    m->n5_scale = pl_bind_f32(&bd, "norm5.scale", 1, feat, 0, 0, 0);
+    m->n5_shift = pl_bind_f32(&bd, "norm5.shift", 1, feat, 0, 0, 0);
+    m->fc_w = pl_bind_f32(&bd, "fc.weight", 2, m->fc_n, zl, 0, 0);
+    m->fc_b = pl_bind_f32(&bd, "fc.bias", 1, m->fc_n, 0, 0, 0);
+    m->heads = (pl_heads){.n_lights = N, .fc_n = m->fc_n, .dist_hidden = H, .z_len = zl};
+    pl_heads_bind(&bd, &m->heads);
+    m->heads.d1_w = pl_bind_f32(&bd, "head_dist.fc1.weight", 2, H, zl + 3 * N, 0, 0);
+    pl_heads_bind_dist(&bd, &m->heads);
+    m->n_params += bd.params;
+    if (bd.rc < 0) return bd.rc;
+    if ((uint32_t)bd.used != m->file->n_tensors) {
+        for (uint32_t i = 0; i < m->file->n_tensors; i++) {
+            const char *n = m->file->tensors[i].name;
             /* find the first tensor the architecture does not name */
             int known = !strcmp(n, "conv0.weight") || !strcmp(n, "conv0.bias") ||
                         !strncmp(n, "denseblock", 10) || !strncmp(n, "transition", 10) ||
                         !strncmp(n, "norm5.", 6) || !strncmp(n, "fc.", 3) ||
                         !strncmp(n, "head_", 5);
             if (!known)
-                return pl_error(PL_E_MODEL, "%s: unexpected tensor '%s' for %s", m->file.path, n,
-                                m->arch);
+                return pl_error(PL_E_MODEL, "%s: unexpected tensor '%s' for %s", m->file->path, n,
+                                PL_ARCH_NAME);
         }
-        return pl_error(PL_E_MODEL, "%s: %u tensors, the architecture uses %d", m->file.path,
-                        m->file.n_tensors, used);
+        return pl_error(PL_E_MODEL, "%s: %u tensors, the architecture uses %d", m->file->path,
+                        m->file->n_tensors, bd.used);
     }
     return PL_OK;
 }
@@ -255,7 +159,7 @@ static size_t max_sz(size_t a, size_t b)
 }
 
 /* The arena plan (see the top of this file). Sizes in floats. */
-static int plan_arena(pl_model *m)
+static int plan_arena(pl_f32net *m)
 {
     const size_t H = (size_t)m->in_h, W = (size_t)m->in_w;
     const size_t hw1 = (H / 4) * (W / 4), hw2 = hw1 / 4, hw3 = hw2 / 4, hw4 = hw3 / 4;
@@ -264,10 +168,8 @@ static int plan_arena(pl_model *m)
     const size_t b = max_sz(3 * H * W, max_sz(256 * hw1, 1024 * hw3));
     const size_t t1 = max_sz(256 * hw1, max_sz(512 * hw2, 1024 * hw3));
     const size_t t2 = max_sz(BOTTLENECK * hw1, 256 * hw1 / 4);
-    const int N = m->n_lights;
     m->z_len = 1024 * m->bands;
-    const size_t small = (size_t)m->z_len + (size_t)m->fc_n + (size_t)(3 * N + N + 3 * N + 3) +
-                         (size_t)(m->z_len + 3 * N) + (size_t)m->dist_hidden + (size_t)N;
+    const size_t small = (size_t)m->z_len + (size_t)m->fc_n + pl_heads_floats(&m->heads);
     /* each region rounded up to 16 floats (64 bytes) */
     const size_t regions[] = {a, b, t1, t2, small};
     size_t total = 0;
@@ -291,24 +193,12 @@ static int plan_arena(pl_model *m)
     p += m->z_len;
     m->h = p;
     p += m->fc_n;
-    m->out_dir = p;
-    p += 3 * N;
-    m->out_size = p;
-    p += N;
-    m->out_rgb = p;
-    p += 3 * N;
-    m->out_amb = p;
-    p += 3;
-    m->dist_in = p;
-    p += m->z_len + 3 * N;
-    m->dist_h = p;
-    p += m->dist_hidden;
-    m->out_dist = p;
+    pl_heads_place(&m->heads, p);
     return PL_OK;
 }
 
 /* Per-thread GEMM scratch for `threads` threads (packed paths). */
-static int make_scratch(pl_model *m, int threads)
+static int make_scratch(pl_f32net *m, int threads)
 {
     if (!m->kern->f32.packed || threads <= m->scratch_threads) return PL_OK;
     size_t bytes;
@@ -333,7 +223,7 @@ static size_t packed_floats(const pl_f32_conv *c)
 
 /* Describes every convolution (shapes at this model's input size) and, on packed paths, packs
  * their weights and sizes the scratch. */
-static int prepare_convs(pl_model *m)
+static int prepare_convs(pl_f32net *m)
 {
     int h = m->in_h / 2, w = m->in_w / 2;
     const nn_conv_params c0 = {3, m->in_h, m->in_w, 64, h, w, 7, 7, 2, 3, 1};
@@ -401,190 +291,6 @@ static int prepare_convs(pl_model *m)
         dst += (packed_floats(all[i]) + 15) & ~(size_t)15;
     }
     return make_scratch(m, 1);
-}
-
-int pl_model_load(const char *path, pl_model **out)
-{
-    if (!out) return pl_error(PL_E_ARG, "pl_model_load: out is NULL");
-    *out = NULL;
-    pl_model *m = calloc(1, sizeof *m);
-    if (!m) return pl_error(PL_E_NOMEM, "out of memory");
-    int rc = pl_plm_open(path, &m->file);
-    if (rc < 0) {
-        free(m);
-        return rc;
-    }
-    const pl_plm *f = &m->file;
-    const char *arch = pl_plm_meta(f, "arch"), *prec = pl_plm_meta(f, "precision");
-    if (!arch || strcmp(arch, "densenet121-parametric")) {
-        rc = pl_error(PL_E_MODEL, "%s: architecture '%s', expected 'densenet121-parametric'",
-                      f->path, arch ? arch : "(missing)");
-        goto fail;
-    }
-    if (!prec || (strcmp(prec, "fp32") && strcmp(prec, "int8"))) {
-        rc = pl_error(PL_E_UNSUPPORTED, "%s: precision '%s', expected 'fp32' or 'int8'", f->path,
-                      prec ? prec : "(missing)");
-        goto fail;
-    }
-    snprintf(m->arch, sizeof m->arch, "%s", arch);
-    snprintf(m->precision, sizeof m->precision, "%s", prec);
-    if ((rc = parse_int(f, "n_lights", 1, PL_MAX_LIGHTS, &m->n_lights)) < 0 ||
-        (rc = parse_int(f, "input_h", 96, 1024, &m->in_h)) < 0 ||
-        (rc = parse_int(f, "input_w", 64, 1024, &m->in_w)) < 0 ||
-        (rc = parse_int(f, "bands", 1, 3, &m->bands)) < 0 ||
-        (rc = parse_int(f, "fc", 1, 4096, &m->fc_n)) < 0 ||
-        (rc = parse_int(f, "dist_hidden", 1, 4096, &m->dist_hidden)) < 0 ||
-        (rc = parse_float3(f, "mean", 0, m->mean)) < 0 ||
-        (rc = parse_float3(f, "std", 1, m->std)) < 0 || (rc = parse_anchor(f, m->anchor)) < 0)
-        goto fail;
-    if (m->n_lights != 2 && m->n_lights != 3 && m->n_lights != 5) {
-        rc = pl_error(PL_E_MODEL, "%s: n_lights=%d, expected 2, 3 or 5", f->path, m->n_lights);
-        goto fail;
-    }
-    if (m->in_h % 32 || m->in_w % 32) {
-        rc = pl_error(PL_E_MODEL, "%s: input %dx%d (h x w) must be multiples of 32", f->path,
-                      m->in_h, m->in_w);
-        goto fail;
-    }
-    if (!strcmp(prec, "int8")) {
-        const pl_net_shape shape = {m->n_lights, m->in_h, m->in_w, m->bands, m->fc_n,
-                                    m->dist_hidden, {m->mean[0], m->mean[1], m->mean[2]},
-                                    {m->std[0], m->std[1], m->std[2]}};
-        if ((rc = pl_s8_load(&m->file, &shape, &m->s8)) < 0) goto fail;
-        m->n_params = pl_s8_params(m->s8);
-        m->arena_floats = (pl_s8_arena_bytes(m->s8) + sizeof(float) - 1) / sizeof(float);
-    } else if ((rc = bind_tensors(m)) < 0 || (rc = plan_arena(m)) < 0) {
-        goto fail;
-    } else if ((rc = pl_kernels_get(&m->kern)) < 0 || (rc = prepare_convs(m)) < 0) {
-        pl_error_prefix(rc, "%s", f->path);
-        goto fail;
-    }
-    if ((rc = pl_pool_create(1, &m->pool)) < 0) goto fail;
-    *out = m;
-    return PL_OK;
-fail:
-    pl_model_free(m);
-    return rc;
-}
-
-void pl_model_free(pl_model *m)
-{
-    if (!m) return;
-    pl_s8_free(m->s8);
-    pl_pool_destroy(m->pool);
-    free(m->wpack);
-    free(m->scratch);
-    free(m->arena);
-    pl_plm_close(&m->file);
-    free(m);
-}
-
-int pl_model_get_info(const pl_model *m, pl_model_info *info)
-{
-    if (!m || !info) return pl_error(PL_E_ARG, "pl_model_get_info: NULL argument");
-    const char *prov = pl_plm_meta(&m->file, "provenance");
-    info->arch = m->arch;
-    info->precision = m->precision;
-    info->provenance = prov ? prov : "";
-    info->n_lights = m->n_lights;
-    info->input_h = m->in_h;
-    info->input_w = m->in_w;
-    info->n_params = m->n_params;
-    info->file_size = (int64_t)m->file.map_size;
-    for (int k = 0; k < 3; k++)
-        info->anchor[k] = m->anchor[k];
-    /* fp32 on a packed path: the arena, the GEMM scratch and the packed weights */
-    info->arena_bytes =
-        (m->arena_floats + m->scratch_floats * (size_t)m->scratch_threads + m->wpack_floats) *
-        sizeof(float);
-    return PL_OK;
-}
-
-int pl_model_set_anchor(pl_model *m, double w, double b, double gamma)
-{
-    if (!m) return pl_error(PL_E_ARG, "pl_model_set_anchor: model is NULL");
-    int rc = pl_anchor_check(w, b, gamma);
-    if (rc < 0) return rc;
-    m->anchor[0] = (float)w, m->anchor[1] = (float)b, m->anchor[2] = (float)gamma;
-    return PL_OK;
-}
-
-int pl_model_set_threads(pl_model *m, int n)
-{
-    if (!m) return pl_error(PL_E_ARG, "pl_model_set_threads: model is NULL");
-    if (n == pl_pool_threads(m->pool)) return PL_OK;
-    pl_pool *p;
-    int rc = pl_pool_create(n, &p);
-    if (rc < 0) return rc;
-    if (!m->s8 && (rc = make_scratch(m, n)) < 0) {
-        pl_pool_destroy(p);
-        return rc;
-    }
-    pl_pool_destroy(m->pool);
-    m->pool = p;
-    return PL_OK;
-}
-
-int pl_model_last_latent(const pl_model *m, const float **z, int *n)
-{
-    if (!m || !z || !n) return pl_error(PL_E_ARG, "pl_model_last_latent: NULL argument");
-    if (!m->have_latent) return pl_error(PL_E_ARG, "no estimate has run on this model yet");
-    if (m->s8) {
-        pl_s8_latent(m->s8, z, n);
-        return PL_OK;
-    }
-    *z = m->z;
-    *n = m->z_len;
-    return PL_OK;
-}
-
-int pl_model_set_observer(pl_model *m, pl_layer_observer fn, void *ctx)
-{
-    if (!m) return pl_error(PL_E_ARG, "pl_model_set_observer: model is NULL");
-    if (m->s8) return pl_s8_set_observer(m->s8, fn, ctx);
-    m->observer = fn;
-    m->observer_ctx = ctx;
-    return PL_OK;
-}
-
-const char *pl_prof_stage_name(int stage)
-{
-    static const char *const names[PL_PROF_N] = {
-        "preprocess",   "stem 7x7",     "max pool",     "dense 1x1 b1", "dense 3x3 b1",
-        "dense 1x1 b2", "dense 3x3 b2", "dense 1x1 b3", "dense 3x3 b3", "dense 1x1 b4",
-        "dense 3x3 b4", "transition 1", "transition 2", "transition 3", "norm5 + bands",
-        "fc + heads"};
-    return stage >= 0 && stage < PL_PROF_N ? names[stage] : NULL;
-}
-
-int64_t pl_prof_now(const pl_profile *p)
-{
-    if (!p) return 0;
-    if (!p->thread_cpu) return pl_now_ns();
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
-}
-
-void pl_prof_mark(pl_profile *p, int stage, int64_t *t)
-{
-    if (!p) return;
-    const int64_t now = pl_prof_now(p);
-    p->ns[stage] += now - *t;
-    *t = now;
-}
-
-int pl_model_set_profile(pl_model *m, pl_profile *p)
-{
-    if (!m) return pl_error(PL_E_ARG, "pl_model_set_profile: model is NULL");
-    m->prof = p;
-    if (m->s8) pl_s8_set_profile(m->s8, p);
-    return PL_OK;
-}
-
-const char *pl_model_precision(const pl_model *m)
-{
-    return m ? m->precision : NULL;
 }
 
 /* ---- execution ----------------------------------------------------------------------------- */
@@ -674,7 +380,7 @@ static void run_trans(void *ctx, int begin, int end)
     }
 }
 
-static void bn_relu(pl_model *m, const float *in, const float *scale, const float *shift, int c,
+static void bn_relu(pl_f32net *m, const float *in, const float *scale, const float *shift, int c,
                     int hw, float *out)
 {
     struct job j = {.op = OP_BN_RELU, .k = &m->kern->f32, .in = in, .w = scale, .shift = shift,
@@ -684,7 +390,7 @@ static void bn_relu(pl_model *m, const float *in, const float *scale, const floa
 
 /* One convolution (prepare_convs): packed GEMM, or on the reference path the optional
  * pre-activation into T1 and then nn_conv2d_f32__ref. */
-static void conv(pl_model *m, const pl_f32_conv *c, const float *in, float *out)
+static void conv(pl_f32net *m, const pl_f32_conv *c, const float *in, float *out)
 {
     const nn_conv_params *p = &c->p;
     if (m->kern->f32.packed) {
@@ -708,7 +414,7 @@ static void conv(pl_model *m, const pl_f32_conv *c, const float *in, float *out)
     pl_pool_for(m->pool, p->out_c, run_job, &j);
 }
 
-static void fc(pl_model *m, const float *in, int n_in, const float *w, const float *b, int n_out,
+static void fc(pl_f32net *m, const float *in, int n_in, const float *w, const float *b, int n_out,
                int relu, float *out)
 {
     struct job j = {.op = OP_FC, .k = &m->kern->f32, .in = in, .n_in = n_in, .w = w, .b = b, .relu = relu, .out = out};
@@ -716,17 +422,19 @@ static void fc(pl_model *m, const float *in, int n_in, const float *w, const flo
 }
 
 /* Reports a layer's output to the observer (model/observer.h), if one is set. */
-static void observe(const pl_model *m, const char *layer, const float *chw, int c, int h, int w)
+static void observe(const pl_f32net *m, const char *layer, const float *chw, int c, int h, int w)
 {
     if (m->observer) m->observer(m->observer_ctx, layer, chw, c, h, w, NULL);
 }
 
-static float softplus(float x)
+/* fc for the heads (model/heads.h) */
+static void heads_fc(void *ctx, const float *in, int n_in, const float *w, const float *b,
+                     int n_out, int relu, float *out)
 {
-    return x > 20.0f ? x : log1pf(expf(x)); /* PyTorch's softplus: beta 1, threshold 20 */
+    fc(ctx, in, n_in, w, b, n_out, relu, out);
 }
 
-static void forward(pl_model *m, int64_t clk)
+static void forward(pl_f32net *m, int64_t clk)
 {
     int h = m->in_h / 2, w = m->in_w / 2;
     conv(m, &m->conv0, m->x_in, m->buf_a);
@@ -791,37 +499,16 @@ static void forward(pl_model *m, int64_t clk)
     pl_prof_mark(m->prof, PL_PROF_NORM5, &clk);
     observe(m, "z", m->z, m->z_len, 1, 1);
 
-    const int N = m->n_lights;
     fc(m, m->z, m->z_len, m->fc_w, m->fc_b, m->fc_n, 1, m->h);
     observe(m, "fc", m->h, m->fc_n, 1, 1);
-    fc(m, m->h, m->fc_n, m->dir_w, m->dir_b, 3 * N, 0, m->out_dir);
-    fc(m, m->h, m->fc_n, m->size_w, m->size_b, N, 0, m->out_size);
-    fc(m, m->h, m->fc_n, m->rgb_w, m->rgb_b, 3 * N, 0, m->out_rgb);
-    fc(m, m->h, m->fc_n, m->amb_w, m->amb_b, 3, 0, m->out_amb);
-    for (int i = 0; i < N; i++) { /* F.normalize(eps=1e-12) */
-        float *d = m->out_dir + 3 * i;
-        const float n = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const float inv = 1.0f / (n > 1e-12f ? n : 1e-12f);
-        d[0] *= inv;
-        d[1] *= inv;
-        d[2] *= inv;
-    }
-    for (int i = 0; i < N; i++) m->out_size[i] = softplus(m->out_size[i]);
-    for (int i = 0; i < 3 * N; i++) m->out_rgb[i] = softplus(m->out_rgb[i]);
-    for (int i = 0; i < 3; i++) m->out_amb[i] = softplus(m->out_amb[i]);
-    memcpy(m->dist_in, m->z, (size_t)m->z_len * sizeof(float));
-    memcpy(m->dist_in + m->z_len, m->out_dir, (size_t)(3 * N) * sizeof(float));
-    fc(m, m->dist_in, m->z_len + 3 * N, m->d1_w, m->d1_b, m->dist_hidden, 1, m->dist_h);
-    fc(m, m->dist_h, m->dist_hidden, m->d2_w, m->d2_b, N, 0, m->out_dist);
-    for (int i = 0; i < N; i++) m->out_dist[i] = softplus(m->out_dist[i]);
+    pl_heads_run(&m->heads, m->z, m->h, heads_fc, m);
     pl_prof_mark(m->prof, PL_PROF_HEADS, &clk);
 }
 
-/* The float network on the frame's region (x0, y0, cw, ch) into *out; *t_pre: end of the
- * preprocessing. */
-static void estimate_f32(pl_model *m, const uint8_t *rgb, size_t stride, int x0, int y0, int cw,
-                         int ch, pl_lighting *out, int64_t *t_pre)
+void pl_f32net_estimate(pl_f32net *m, pl_pool *pool, const uint8_t *rgb, size_t stride, int x0,
+                        int y0, int cw, int ch, pl_lighting *out, int64_t *t_pre)
 {
+    m->pool = pool;
     int64_t pt = pl_prof_now(m->prof);
     pl_resize_job rj = {rgb, stride, x0, y0, cw, ch, m->x_in, m->in_w, m->in_h};
     pl_pool_for(m->pool, m->in_h, pl_resize_job_rows, &rj);
@@ -835,44 +522,77 @@ static void estimate_f32(pl_model *m, const uint8_t *rgb, size_t stride, int x0,
     pl_prof_mark(m->prof, PL_PROF_PRE, &pt);
     forward(m, pt);
 
-    memset(out, 0, sizeof *out);
-    out->n_lights = m->n_lights;
-    for (int i = 0; i < m->n_lights; i++) {
-        pl_light *L = &out->lights[i];
-        memcpy(L->dir, m->out_dir + 3 * i, sizeof L->dir);
-        memcpy(L->rgb, m->out_rgb + 3 * i, sizeof L->rgb);
-        L->distance_m = m->out_dist[i];
-        L->solid_angle_sr = m->out_size[i];
-    }
-    memcpy(out->ambient, m->out_amb, sizeof out->ambient);
+    pl_heads_lighting(&m->heads, out);
 }
 
-int pl_estimate_rgb8(pl_model *m, const uint8_t *rgb, int width, int height, size_t stride,
-                     pl_lighting *out, pl_timing *timing)
+/* ---- the executor's interface (model/net_f32.h) ------------------------------------------- */
+
+int pl_f32net_load(const pl_plm *file, const pl_net_shape *shape, pl_f32net **out)
 {
-    if (!m || !rgb || !out) return pl_error(PL_E_ARG, "pl_estimate_rgb8: NULL argument");
-    if (width < 8 || height < 8 || width > PL_IMAGE_MAX_SIDE || height > PL_IMAGE_MAX_SIDE)
-        return pl_error(PL_E_ARG, "frame %dx%d: each side must be in 8..%d", width, height,
-                        PL_IMAGE_MAX_SIDE);
-    if (stride < (size_t)width * 3)
-        return pl_error(PL_E_ARG, "frame stride %zu smaller than 3 x width (%d)", stride, width);
-    const int64_t t0 = pl_now_ns();
-    int64_t t1;
-    if (m->prof) m->prof->frames++;
-    /* the region the network sees: both executors crop the frame to the model's aspect */
-    int x0, y0, cw, ch;
-    pl_crop_to_aspect(width, height, m->in_w, m->in_h, &x0, &y0, &cw, &ch);
-    if (m->s8)
-        pl_s8_estimate(m->s8, m->pool, rgb, width, height, stride, out, &t1);
-    else
-        estimate_f32(m, rgb, stride, x0, y0, cw, ch, out, &t1);
-    m->have_latent = 1;
-    if (m->anchor[0] != 0 || m->anchor[1] != 0)
-        pl_anchor_apply(out, pl_frame_mean_luminance(rgb, stride, x0, y0, cw, ch, m->anchor[2]),
-                        m->anchor[0], m->anchor[1]);
-    if (timing) {
-        timing->preprocess_ms = (double)(t1 - t0) / 1e6;
-        timing->infer_ms = (double)(pl_now_ns() - t1) / 1e6;
+    *out = NULL;
+    pl_f32net *m = calloc(1, sizeof *m);
+    if (!m) return pl_error(PL_E_NOMEM, "out of memory");
+    m->file = file;
+    m->n_lights = shape->n_lights;
+    m->in_h = shape->in_h;
+    m->in_w = shape->in_w;
+    m->bands = shape->bands;
+    m->fc_n = shape->fc_n;
+    m->dist_hidden = shape->dist_hidden;
+    memcpy(m->mean, shape->mean, sizeof m->mean);
+    memcpy(m->std, shape->std, sizeof m->std);
+    int rc;
+    if ((rc = bind_tensors(m)) < 0 || (rc = plan_arena(m)) < 0) {
+        pl_f32net_free(m);
+        return rc;
     }
+    if ((rc = pl_kernels_get(&m->kern)) < 0 || (rc = prepare_convs(m)) < 0) {
+        pl_error_prefix(rc, "%s", file->path);
+        pl_f32net_free(m);
+        return rc;
+    }
+    *out = m;
     return PL_OK;
+}
+
+void pl_f32net_free(pl_f32net *m)
+{
+    if (!m) return;
+    free(m->wpack);
+    free(m->scratch);
+    free(m->arena);
+    free(m);
+}
+
+int64_t pl_f32net_params(const pl_f32net *m)
+{
+    return m->n_params;
+}
+
+size_t pl_f32net_memory_bytes(const pl_f32net *m)
+{
+    return (m->arena_floats + m->scratch_floats * (size_t)m->scratch_threads + m->wpack_floats) *
+           sizeof(float);
+}
+
+int pl_f32net_set_threads(pl_f32net *m, int n)
+{
+    return make_scratch(m, n);
+}
+
+void pl_f32net_set_observer(pl_f32net *m, pl_layer_observer fn, void *ctx)
+{
+    m->observer = fn;
+    m->observer_ctx = ctx;
+}
+
+void pl_f32net_set_profile(pl_f32net *m, pl_profile *p)
+{
+    m->prof = p;
+}
+
+void pl_f32net_latent(const pl_f32net *m, const float **z, int *n)
+{
+    *z = m->z;
+    *n = m->z_len;
 }

@@ -11,7 +11,7 @@ static float finish(__m512 s0, __m512 s1, const float *bias, int o, int relu)
     return relu && v < 0.0f ? 0.0f : v;
 }
 
-void nn_fc_f32__avx512vnni(const float *in, int n_in, const float *w, const float *bias, int relu,
+void nn_fc_f32__avx512f(const float *in, int n_in, const float *w, const float *bias, int relu,
                            float *out, int o_begin, int o_end)
 {
     const int n32 = n_in & ~31, rem = n_in - n32;

@@ -1,9 +1,9 @@
-#include "port/util.h"
+/* Error messages and status names (core/status.h). */
+#include "core/status.h"
 
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 
 static _Thread_local char last_error[512];
 
@@ -54,18 +54,4 @@ const char *pl_status_name(int status)
     case PL_E_INTERNAL: return "PL_E_INTERNAL";
     default: return "PL_E_UNKNOWN";
     }
-}
-
-int64_t pl_now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
-}
-
-int64_t pl_wall_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
 }

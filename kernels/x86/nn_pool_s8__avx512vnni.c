@@ -1,3 +1,0 @@
-/* Pooling and clamping compiled for AVX-512 (kernels/x86/nn_pool_s8_tmpl.h). */
-#define NN_P_SUFFIX __avx512vnni
-#include "kernels/x86/nn_pool_s8_tmpl.h"
