@@ -180,7 +180,8 @@ typedef struct list_item {
     double yaw, pitch, fov, exposure, gamma;
 } list_item;
 
-/* Field i (0-based) of a tab-separated line, NUL-terminated in place; NULL when missing. */
+/* The next tab-separated field of *s, NUL-terminated in place (*s moves past it); NULL when
+ * none is left. */
 static char *next_field(char **s)
 {
     if (!*s) return NULL;
@@ -238,8 +239,8 @@ static int read_list(const char *path, list_item **items, int *n)
         list_item *it = &(*items)[*n];
         char *rest = line, *fld[7];
         int k = 0;
-        for (; k < 7 && (fld[k] = next_field(&rest)) != NULL; k++) {
-        }
+        while (k < 7 && (fld[k] = next_field(&rest)) != NULL)
+            k++;
         if (k < 7 || rest) {
             fprintf(stderr,
                     "parlight crop: %s:%d: expected 7 tab-separated fields (OUT GT yaw pitch fov "

@@ -4,7 +4,8 @@
 # known light + ambient: the map's brightest pixel lies toward the ground truth's light (both
 # rotated into the crop's frame by the C code, so a wrong rotation or flip shows), its
 # solid-angle-weighted mean is the panorama's mean times the exposure scale k (area averaging
-# keeps energy), no map is written without the flag, and bad widths are refused.
+# keeps energy), no map is written without the flag, and bad widths are refused. --list makes the
+# same bytes as one process per crop and refuses a malformed line or an existing output.
 # Env: BUILD, PL_TEST_TMP (tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
 set -u
 cd "$(dirname "$0")/.."
@@ -57,4 +58,19 @@ for bad in 3 2 300 x; do
     "${C[@]}" --force --gt-map "$bad" 2>"$TMP/err" && fail "--gt-map $bad accepted"
     grep -q -- "--gt-map" "$TMP/err" || fail "--gt-map $bad: no message naming it"
 done
-echo "crop --gt-map: map in the crop's frame, energy kept, bad widths refused"
+# --list: the same bytes as one process per crop; a malformed line is refused naming its line
+printf '%s\t%s\t40\t10\t60\t0\t2.2\n# a comment\n\n%s\t%s\t-100\t-5\t75\t0.5\t1.9\n' \
+    "$TMP/l1.png" "$TMP/l1.json" "$TMP/l2.png" "$TMP/l2.json" >"$TMP/list.txt"
+"$BUILD/parlight" crop --hdr "$TMP/p.hdr" --size 128x96 --gt-map 32 --list "$TMP/list.txt" ||
+    fail "crop --list"
+"${C[@]}" --force --gt-map 32 || fail "crop again"
+cmp -s "$TMP/l1.png" "$TMP/c.png" || fail "--list crop differs from a single crop"
+[ "$(sed 's/"image":"[^"]*"//' "$TMP/l1.json")" = "$(sed 's/"image":"[^"]*"//' "$TMP/c.json")" ] ||
+    fail "--list ground truth differs from a single crop's"
+[ -s "$TMP/l2.json" ] || fail "--list: the second crop is missing"
+printf '%s\t%s\t40\t10\n' "$TMP/l3.png" "$TMP/l3.json" >"$TMP/bad.txt"
+"$BUILD/parlight" crop --hdr "$TMP/p.hdr" --list "$TMP/bad.txt" 2>"$TMP/err" && fail "a 4-field line accepted"
+grep -q "bad.txt:1: expected 7 tab-separated fields" "$TMP/err" || fail "no line named: $(cat "$TMP/err")"
+"$BUILD/parlight" crop --hdr "$TMP/p.hdr" --list "$TMP/list.txt" 2>"$TMP/err" && fail "--list overwrote"
+grep -q "already exists" "$TMP/err" || fail "no reason: $(cat "$TMP/err")"
+echo "crop --gt-map: map in the crop's frame, energy kept, bad widths refused; --list: same bytes"
