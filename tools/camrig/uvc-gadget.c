@@ -47,6 +47,7 @@
 #include <linux/usb/ch9.h>
 #include <linux/usb/gadgetfs.h>
 #include <linux/usb/video.h>
+#include <poll.h>
 #include <pthread.h>
 #include <sched.h>
 #include <signal.h>
@@ -584,6 +585,24 @@ static void log_setup(const struct usb_ctrlrequest *r)
                 r->bRequestType, r->bRequest, r->wValue, r->wIndex, r->wLength);
 }
 
+/* ep0 is non-blocking (run_device): gadgetfs's wakeups are tested without a barrier
+ * (ep0_readable: waitqueue_active, then wake_up), so a sleeping reader can miss one on an SMP
+ * guest. A missed wakeup for a SET_CUR's data is never repaired: the host's next SETUP clears
+ * setup_out_ready before it wakes the reader, the reader sleeps on, and every later request times
+ * out (uvcvideo: "Failed to query (129) UVC probe control : -110", a CI run of 2026-12-03). So
+ * the data is polled for, 1 ms apart, for up to 2 s; EIDRM (the next request has come) ends the
+ * wait as before. */
+static ssize_t read_setup_data(int fd, uint8_t *data, unsigned len)
+{
+    for (int i = 0; i < 2000; i++) {
+        ssize_t n = read(fd, data, len);
+        if (n >= 0 || (errno != EAGAIN && errno != EINTR)) return n;
+        usleep(1000);
+    }
+    errno = ETIMEDOUT;
+    return -1;
+}
+
 static void handle_setup(int fd, const struct usb_ctrlrequest *r, const char *gadget_dir,
                          const char *ep_name, pthread_t th)
 {
@@ -623,7 +642,7 @@ static void handle_setup(int fd, const struct usb_ctrlrequest *r, const char *ga
     switch (r->bRequest) {
     case UVC_SET_CUR: {
         if (g_race_delay_us) usleep(g_race_delay_us);
-        ssize_t n = read(fd, data, len); /* the host's values; the device has one setting */
+        ssize_t n = read_setup_data(fd, data, len); /* the host's values; one setting here */
         if (n < 0 && errno == EIDRM) {
             /* The data stage completed without us (gadgetfs queues it at once and dummy_hcd
              * ends the transfer), the host went on, and its next request arrived before this
@@ -725,8 +744,16 @@ static int run_device(const char *udc, const char *ep_name)
     }
     fprintf(stderr, "uvc-gadget: %d frames %dx%d YUYV%s, %.2f fps, on %s\n", g_n_frames, g_w, g_h,
             g_have_mjpeg ? " and MJPEG" : "", 1e7 / g_interval, udc);
+    /* Events: poll with a 20 ms bound, then a non-blocking read whatever poll said, so that a
+     * wakeup gadgetfs lost (see read_setup_data) costs 20 ms, not the host's 5 s timeout. */
+    if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK) != 0) {
+        fprintf(stderr, "uvc-gadget: making %s non-blocking: %s\n", udc, strerror(errno));
+        return 1;
+    }
     for (;;) {
         struct usb_gadgetfs_event ev[5];
+        struct pollfd pfd = {.fd = fd, .events = POLLIN};
+        (void)poll(&pfd, 1, 20);
         ssize_t n = read(fd, ev, sizeof ev);
         if (n < 0) {
             if (errno == EINTR || errno == EAGAIN) continue;
