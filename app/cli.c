@@ -1,10 +1,12 @@
 #include "app/cli.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "light/light.h"
@@ -96,4 +98,46 @@ int cli_getopt_error(const char *cmd, int c, char *const argv[])
         fprintf(stderr, "parlight %s: unknown option '-%c' (see --help)\n", cmd,
                 optopt > 32 && optopt < 127 ? optopt : '?');
     return 2;
+}
+
+int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
+{
+    /* non-blocking open: a FIFO given by mistake is refused below instead of hanging here */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    struct stat st;
+    const char *why = NULL;
+    if (fd < 0)
+        why = strerror(errno);
+    else if (fstat(fd, &st) != 0)
+        why = strerror(errno);
+    else if (!S_ISREG(st.st_mode))
+        why = "not a regular file";
+    else if (st.st_mode & S_IROTH)
+        why = "readable by every user: a secret must not be (chmod o-r)";
+    char buf[1024];
+    ssize_t n = 0;
+    if (!why) {
+        n = read(fd, buf, sizeof buf - 1);
+        if (n < 0) why = strerror(errno);
+    }
+    if (fd >= 0) close(fd);
+    if (!why) {
+        buf[n] = '\0';
+        size_t len = strcspn(buf, "\n");
+        if (len > 0 && buf[len - 1] == '\r') len--;
+        buf[len] = '\0';
+        if (len == 0)
+            why = "the first line is empty";
+        else if (len >= cap)
+            why = "the token is too long";
+        for (size_t i = 0; i < len && !why; i++)
+            if ((unsigned char)buf[i] < 0x20 || buf[i] == 0x7f)
+                why = "the token holds a control character";
+        if (!why) memcpy(out, buf, len + 1);
+    }
+    if (why) {
+        fprintf(stderr, "parlight %s: --token-file %s: %s\n", cmd, path, why);
+        return -1;
+    }
+    return 0;
 }

@@ -2,6 +2,8 @@
 #ifndef PL_APP_CLI_H
 #define PL_APP_CLI_H
 
+#include <stddef.h>
+
 /* Each returns 0 on success, or prints "parlight <cmd>: --flag: <problem>" and returns -1. */
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out);
 int cli_float3(const char *cmd, const char *flag, const char *s, float out[3]);
@@ -10,6 +12,11 @@ int cli_double(const char *cmd, const char *flag, const char *s, double lo, doub
                double *out);
 /* --anchor: "off" (w = b = 0, gamma 2.2) or W,B or W,B,GAMMA (pl_model_set_anchor's ranges). */
 int cli_anchor(const char *cmd, const char *s, double out[3]);
+
+/* A shared secret from `path` (--token-file): its first line without the newline, 1..cap-1
+ * bytes, no control characters. The file must be a regular file that not every user can read.
+ * Prints "parlight <cmd>: --token-file PATH: <problem>" and returns -1 otherwise. */
+int cli_read_token(const char *cmd, const char *path, char *out, size_t cap);
 
 /* For getopt_long's ':' (an option without its value; the optstring must start with ':') and
  * '?' (an unknown option, or a value given to one that takes none) results `c`: prints

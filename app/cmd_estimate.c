@@ -10,6 +10,7 @@
 
 #include "app/cli.h"
 #include "app/commands.h"
+#include "core/ratelimit.h"
 #include "core/util.h"
 #include "light/light.h"
 #include "light/lights_json.h"
@@ -44,6 +45,12 @@ static void help(FILE *f)
             "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
             "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
             "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n"
+            "  --max-clients N readers at once per tcp/unix server, 1..1024 (default 16); one\n"
+            "                  more is told why and closed\n"
+            "  --unix-mode MODE permission bits of unix: sockets, octal (default 600: owner only;\n"
+            "                  660 adds the file's group)\n"
+            "  --token-file F  tcp/unix readers must first send the token in F (its first line)\n"
+            "                  and a newline; F must not be readable by every user\n"
             "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
             "                  frames that arrive while the network is busy are dropped and\n"
             "                  counted in \"dropped\" (cameras always run this way)\n"
@@ -72,6 +79,27 @@ static void wait_until(int64_t until_ns)
         struct timespec ts = {0, (long)(left < 50000000 ? left : 50000000)};
         nanosleep(&ts, NULL);
     }
+}
+
+/* Sink warnings and events: LOG_BURST lines per LOG_WINDOW_NS of each kind, then a count. */
+#define LOG_BURST 5
+#define LOG_WINDOW_NS 10000000000LL
+
+static void log_held(pl_ratelimit *r, const char *what)
+{
+    long long held = pl_ratelimit_take_held(r);
+    if (held)
+        fprintf(stderr, "parlight estimate: %lld more %s like the above not shown\n", held, what);
+}
+
+static void log_limited(pl_ratelimit *r, const char *prefix, const char *msg)
+{
+    long long held;
+    int show = pl_ratelimit_allow(r, pl_now_ns(), &held);
+    if (held)
+        fprintf(stderr, "parlight estimate: %lld more like the above in the last %lld s not shown\n",
+                held, (long long)(r->window_ns / 1000000000LL));
+    if (show) fprintf(stderr, "parlight estimate: %s%s\n", prefix, msg);
 }
 
 static int finite_lighting(const pl_lighting *L)
@@ -137,6 +165,9 @@ int cmd_estimate(int argc, char **argv)
                                          {"realtime", no_argument, 0, 'r'},
                                          {"fps-cap", required_argument, 0, 'f'},
                                          {"anchor", required_argument, 0, 'A'},
+                                         {"max-clients", required_argument, 0, 'M'},
+                                         {"unix-mode", required_argument, 0, 'U'},
+                                         {"token-file", required_argument, 0, 'T'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
@@ -147,8 +178,11 @@ int cmd_estimate(int argc, char **argv)
     double anchor[3];
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
+    pl_sink_options sink_opts = {0, 0, NULL, 0};
+    const char *token_file = NULL;
+    char token[PL_SINK_TOKEN_MAX + 1];
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
@@ -191,6 +225,23 @@ int cmd_estimate(int argc, char **argv)
             }
             outs[n_outs++] = optarg;
             break;
+        case 'M':
+            if (cli_int("estimate", "--max-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
+                        &sink_opts.max_clients) < 0)
+                return 2;
+            break;
+        case 'U': {
+            char *end;
+            unsigned long m = strtoul(optarg, &end, 8);
+            if (end == optarg || *end || m > 0777 || !(m & 0200)) {
+                fprintf(stderr, "parlight estimate: --unix-mode '%s': expected octal permission "
+                                "bits with the owner's write bit (600, 660, 666)\n", optarg);
+                return 2;
+            }
+            sink_opts.unix_mode = (unsigned)m;
+            break;
+        }
+        case 'T': token_file = optarg; break;
         case 'h': help(stdout); return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
@@ -221,10 +272,20 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: --smooth: %s\n", pl_last_error());
         return 2;
     }
-    int st_open = pl_sinks_open(outs, n_outs, &sinks);
+    if (token_file) {
+        if (cli_read_token("estimate", token_file, token, sizeof token) < 0) return 2;
+        sink_opts.token = token;
+    }
+    int st_open = pl_sinks_open(outs, n_outs, &sink_opts, &sinks);
     if (st_open < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         return st_open == PL_E_ARG ? 2 : 1;
+    }
+    for (int i = 0; i < pl_sinks_count(sinks); i++) { /* where readers connect (port 0 too) */
+        const pl_sink *k = pl_sinks_get(sinks, i);
+        if (!strncmp(pl_sink_spec(k), "tcp:", 4) || !strncmp(pl_sink_spec(k), "unix:", 5))
+            fprintf(stderr, "parlight estimate: %s: listening on %s%s\n", pl_sink_spec(k),
+                    pl_sink_address(k), sink_opts.token ? " (readers send the token first)" : "");
     }
     if (pl_model_load(model_path, &model) < 0 || pl_model_set_threads(model, threads) < 0 ||
         (have_anchor && pl_model_set_anchor(model, anchor[0], anchor[1], anchor[2]) < 0)) {
@@ -250,6 +311,9 @@ int cmd_estimate(int argc, char **argv)
 
     long long done = 0, skipped = 0;
     int64_t prev_t_ns = 0, last_start = 0;
+    pl_ratelimit warn_limit, event_limit; /* a storm prints a few lines and a count */
+    pl_ratelimit_init(&warn_limit, LOG_BURST, LOG_WINDOW_NS);
+    pl_ratelimit_init(&event_limit, LOG_BURST, LOG_WINDOW_NS);
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
@@ -313,10 +377,10 @@ int cmd_estimate(int argc, char **argv)
                 fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
                 goto out;
             }
-            fprintf(stderr, "parlight estimate: warning: %s\n", pl_last_error());
+            log_limited(&warn_limit, "warning: ", pl_last_error());
         }
         while (pl_sinks_next_event(sinks, event, sizeof event))
-            fprintf(stderr, "parlight estimate: %s\n", event);
+            log_limited(&event_limit, "", event);
         done++;
     }
     if (cap) {
@@ -326,6 +390,8 @@ int cmd_estimate(int argc, char **argv)
                          (long long)bad, bad == 1 ? "" : "s", last);
         skipped += bad;
     }
+    log_held(&warn_limit, "sink warnings");
+    log_held(&event_limit, "sink messages");
     if (stop_requested) {
         fprintf(stderr, "parlight estimate: stopped by a signal after %lld frame%s\n", done,
                 done == 1 ? "" : "s");
