@@ -19,7 +19,7 @@
  * Writing never blocks the caller (except stdout, see below) and never raises SIGPIPE:
  *   - stream servers (tcp, unix) have no thread: each pl_sink_write first accepts pending
  *     clients (non-blocking listening socket, at most max_clients at once; an extra one is sent
- *     one line "parlight: refused: REASON\n", closed and counted), reads and discards what
+ *     one line {"error":"refused","reason":"..."}, closed and counted), reads and discards what
  *     clients send (with a token: see pl_sink_options), then queues the
  *     line for every client and sends what each socket takes (MSG_DONTWAIT | MSG_NOSIGNAL).
  *     Each client has a queue of PL_SINK_QUEUE_BYTES (64 KiB) beyond the kernel's socket buffer
@@ -76,14 +76,14 @@ typedef struct pl_sink_stats {
 
 /* How stream servers (tcp, unix) admit readers; other sinks ignore it. Zeroed = the defaults.
  *   max_clients  readers at once, 1..PL_SINK_CLIENTS_LIMIT (0: PL_SINK_MAX_CLIENTS). A client
- *                that finds every slot taken reads "parlight: refused: N clients already
- *                connected (--max-clients)" and EOF. A client waiting for its token holds a slot.
+ *                that finds every slot taken reads {"error":"refused","reason":"N clients
+ *                already connected (--max-clients)"} and EOF. A client waiting for its token holds a slot.
  *   unix_mode    permission bits of a unix: socket file, created with them (umask set around
  *                bind, so there is no moment with wider ones): 0 means 0600, owner only.
  *                Connecting needs write permission: 0660 lets the file's group read the stream.
  *   token        NULL or "": none. Else every new client must first send this token and '\n'
  *                (a trailing '\r' is ignored) within token_ms (0: PL_SINK_TOKEN_MS); until then
- *                it receives nothing. Wrong, too long or late: "parlight: refused: ..." and EOF.
+ *                it receives nothing. Wrong, too long or late: a refusal line and EOF.
  *                1..PL_SINK_TOKEN_MAX bytes, no control characters. The token crosses the
  *                network in clear: it keeps out whoever can reach the port but cannot read the
  *                traffic (docs/OUTPUT.md, "Who can read the stream"). */

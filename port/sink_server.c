@@ -33,12 +33,13 @@ static void client_drop(pl_sink *s, sink_client *c)
     s->stats.clients--;
 }
 
-/* One line telling a client why it is turned away, sent if the socket takes it now (it is
- * closed right after, so nothing waits for a slow reader). */
+/* One JSON line telling a client why it is turned away, {"error":"refused","reason":"..."} (a
+ * JSON-lines reader parses it like a frame), sent if the socket takes it now: it is closed right
+ * after, so nothing waits for a slow reader. Reasons are parlight's own text, without quotes. */
 static void tell_refused(int fd, const char *reason)
 {
     char msg[160];
-    int n = snprintf(msg, sizeof msg, "parlight: refused: %s\n", reason);
+    int n = snprintf(msg, sizeof msg, "{\"error\":\"refused\",\"reason\":\"%s\"}\n", reason);
     if (n > 0)
         (void)send(fd, msg, (size_t)n < sizeof msg ? (size_t)n : sizeof msg - 1,
                    MSG_DONTWAIT | MSG_NOSIGNAL);

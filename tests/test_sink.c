@@ -528,7 +528,7 @@ static void test_client_limit(void)
     char got[256] = "";
     size_t n = read_line(fds[PL_SINK_MAX_CLIENTS], got, sizeof got, 3000);
     CHECK(n > 0 &&
-              !strcmp(got, "parlight: refused: 16 clients already connected (--max-clients)\n"),
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"16 clients already connected (--max-clients)\"}\n"),
           "refused client read '%s'", got);
     CHECK(read_bytes(fds[PL_SINK_MAX_CLIENTS], got, 1, 3000) == 0, "EOF after the refusal");
     pl_sink_close(s);
@@ -559,7 +559,7 @@ static void test_max_clients(void)
     CHECK(read_line(a, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "a: '%s'", got);
     CHECK(read_line(b, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "b: '%s'", got);
     CHECK(read_line(c, got, sizeof got, 3000) > 0 &&
-              !strcmp(got, "parlight: refused: 2 clients already connected (--max-clients)\n"),
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"2 clients already connected (--max-clients)\"}\n"),
           "c: '%s'", got);
     pl_sink_stats st;
     pl_sink_get_stats(s, &st);
@@ -622,17 +622,17 @@ static void test_token(void)
     CHECK(read_line(crlf, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "crlf: '%s'",
           got);
     CHECK(read_line(wrong, got, sizeof got, 3000) > 0 &&
-              !strcmp(got, "parlight: refused: wrong token\n"),
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"wrong token\"}\n"),
           "wrong: '%s'", got);
     CHECK(read_line(prefix, got, sizeof got, 3000) > 0 &&
-              !strcmp(got, "parlight: refused: wrong token\n"),
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"wrong token\"}\n"),
           "prefix: '%s'", got);
     /* the silent one is turned away once its 500 ms are up, and got nothing before */
     struct timespec ts = {0, 600000000};
     nanosleep(&ts, NULL);
     CHECK(pl_sink_write(s, "{\"n\":2}\n", 8) == 0, "write 2");
     CHECK(read_line(silent, got, sizeof got, 3000) > 0 &&
-              !strcmp(got, "parlight: refused: no token within 500 ms\n"),
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"no token within 500 ms\"}\n"),
           "silent: '%s'", got);
     pl_sink_get_stats(s, &st);
     CHECK(st.unauthorized == 3 && st.clients == 2, "unauthorized %llu, clients %d",

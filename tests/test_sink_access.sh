@@ -60,7 +60,7 @@ done
     --token-file "$T/token" --max-clients 2 >/dev/null 2>"$T/tcp.err" &
 pid=$!
 $PY - "$T/tcp.err" <<'PYEOF' || fail "the tcp checks (above)"
-import re, socket, sys, time
+import json, re, socket, sys, time
 
 def wait_port(path):
     for _ in range(600):
@@ -89,14 +89,14 @@ print("ok   a reader with the token receives JSON lines")
 b = socket.create_connection(("127.0.0.1", port))
 b.sendall(b"correct-horse-batterY\n")
 got = line(b)
-assert got == "parlight: refused: wrong token\n", got
+assert json.loads(got) == {"error": "refused", "reason": "wrong token"}, got
 assert line(b) == "", "EOF after the refusal"
 print("ok   a wrong token is told so, then EOF")
 c = socket.create_connection(("127.0.0.1", port))  # holds the second slot, waiting for its token
 time.sleep(0.5)
 d = socket.create_connection(("127.0.0.1", port))
 got = line(d)
-assert got == "parlight: refused: 2 clients already connected (--max-clients)\n", got
+assert json.loads(got) == {"error": "refused", "reason": "2 clients already connected (--max-clients)"}, got
 print("ok   a reader over --max-clients 2 is told why")
 assert line(a).startswith('{"frame":'), "the admitted reader still receives lines"
 PYEOF
