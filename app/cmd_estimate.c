@@ -25,7 +25,9 @@ static void help(FILE *f)
     fprintf(f,
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
-            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n\n"
+            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n"
+            "                         [--loop] [--wait-clients N] [--max-clients N]\n"
+            "                         [--unix-mode MODE] [--token-file F]\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
@@ -55,6 +57,10 @@ static void help(FILE *f)
             "                  frames that arrive while the network is busy are dropped and\n"
             "                  counted in \"dropped\" (cameras always run this way)\n"
             "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
+            "  --loop          --input only: start again at the end (frame numbers go on), until\n"
+            "                  --n-frames or a signal\n"
+            "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
+            "                  tcp/unix servers (a replay is not over before a viewer connects)\n"
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
@@ -100,6 +106,26 @@ static void log_limited(pl_ratelimit *r, const char *prefix, const char *msg)
         fprintf(stderr, "parlight estimate: %lld more like the above in the last %lld s not shown\n",
                 held, (long long)(r->window_ns / 1000000000LL));
     if (show) fprintf(stderr, "parlight estimate: %s%s\n", prefix, msg);
+}
+
+/* --wait-clients: services the servers until n readers are admitted. -1 if a signal came. */
+static int wait_for_readers(pl_sinks *sinks, int n, pl_ratelimit *event_limit)
+{
+    fprintf(stderr, "parlight estimate: waiting for %d reader%s before the first frame\n", n,
+            n == 1 ? "" : "s");
+    char event[512];
+    for (;;) {
+        int have = pl_sinks_service(sinks);
+        while (pl_sinks_next_event(sinks, event, sizeof event))
+            log_limited(event_limit, "", event);
+        if (have >= n) return 0;
+        if (stop_requested) {
+            fprintf(stderr, "parlight estimate: stopped by a signal before the first frame\n");
+            return -1;
+        }
+        struct timespec ts = {0, 20000000};
+        nanosleep(&ts, NULL);
+    }
 }
 
 static int finite_lighting(const pl_lighting *L)
@@ -168,13 +194,15 @@ int cmd_estimate(int argc, char **argv)
                                          {"max-clients", required_argument, 0, 'M'},
                                          {"unix-mode", required_argument, 0, 'U'},
                                          {"token-file", required_argument, 0, 'T'},
+                                         {"loop", no_argument, 0, 'L'},
+                                         {"wait-clients", required_argument, 0, 'W'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
     int n_frames = 0, threads = 1, have_at = 0, c;
     float at[3] = {0, 0, 0}, alpha = -1.0f;
     double fps_cap = 0.0;
-    int realtime = 0, have_anchor = 0;
+    int realtime = 0, have_anchor = 0, loop = 0, wait_clients = 0;
     double anchor[3];
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
@@ -182,7 +210,7 @@ int cmd_estimate(int argc, char **argv)
     const char *token_file = NULL;
     char token[PL_SINK_TOKEN_MAX + 1];
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:LW:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
@@ -242,6 +270,12 @@ int cmd_estimate(int argc, char **argv)
             break;
         }
         case 'T': token_file = optarg; break;
+        case 'L': loop = 1; break;
+        case 'W':
+            if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
+                        &wait_clients) < 0)
+                return 2;
+            break;
         case 'h': help(stdout); return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
@@ -258,6 +292,18 @@ int cmd_estimate(int argc, char **argv)
     }
     if (input && camera) {
         fprintf(stderr, "parlight estimate: --input and --camera exclude each other\n");
+        return 2;
+    }
+    if (loop && camera) {
+        fprintf(stderr, "parlight estimate: --loop replays files; a camera does not end\n");
+        return 2;
+    }
+    int n_servers = 0;
+    for (int i = 0; i < n_outs; i++)
+        n_servers += !strncmp(outs[i], "tcp:", 4) || !strncmp(outs[i], "unix:", 5);
+    if (wait_clients && !n_servers) {
+        fprintf(stderr, "parlight estimate: --wait-clients needs a server to connect to: --out "
+                        "tcp://HOST:PORT or unix:PATH\n");
         return 2;
     }
 
@@ -296,24 +342,29 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
-    /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
-     * newest frame wins and the ones replaced unseen are counted in "dropped" */
-    if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
-        fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
-        goto out;
-    }
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_stop_signal; /* no SA_RESTART: a blocking read returns EINTR */
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
-
-    long long done = 0, skipped = 0;
-    int64_t prev_t_ns = 0, last_start = 0;
     pl_ratelimit warn_limit, event_limit; /* a storm prints a few lines and a count */
     pl_ratelimit_init(&warn_limit, LOG_BURST, LOG_WINDOW_NS);
     pl_ratelimit_init(&event_limit, LOG_BURST, LOG_WINDOW_NS);
+    if (wait_clients && wait_for_readers(sinks, wait_clients, &event_limit) < 0) {
+        rc = 0; /* stopped by a signal while waiting: nothing was estimated, nothing is lost */
+        goto out;
+    }
+    /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
+     * newest frame wins and the ones replaced unseen are counted in "dropped" */
+    if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
+        fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+        goto out;
+    }
+
+    long long done = 0, skipped = 0, done_at_pass = 0;
+    int64_t frame_base = 0, pass_frames = 0; /* --loop: frame numbers go on across passes */
+    int64_t prev_t_ns = 0, last_start = 0;
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
@@ -333,6 +384,28 @@ int cmd_estimate(int argc, char **argv)
         if (st == PL_E_EOF && camera) { /* a camera only ends when it is lost for good */
             fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
             goto out;
+        }
+        if (st == PL_E_EOF && loop) { /* again from the start, numbering on */
+            if (done == done_at_pass) {
+                fprintf(stderr, "parlight estimate: --loop: no usable frame in a whole pass of %s\n",
+                        input);
+                goto out;
+            }
+            pl_capture_stop(cap); /* the source's counts are final once capture stopped */
+            int64_t good = 0, bad = 0;
+            pl_source_counts(src, &good, &bad);
+            frame_base += good + bad > pass_frames ? good + bad : pass_frames;
+            pass_frames = 0;
+            done_at_pass = done;
+            cap = NULL;
+            pl_source_close(src);
+            src = NULL;
+            if (pl_source_open_path(input, &src) < 0 ||
+                (realtime && pl_capture_start(src, realtime, &cap) < 0)) {
+                fprintf(stderr, "parlight estimate: --loop: %s\n", pl_last_error());
+                goto out;
+            }
+            continue;
         }
         if (st == PL_E_EOF) break;
         if (st < 0) { /* one bad frame (a corrupt file in a directory): skipped and counted */
@@ -367,7 +440,8 @@ int cmd_estimate(int argc, char **argv)
             snprintf(source, sizeof source, "%s", desc);
         /* cameras stamp frames with CLOCK_MONOTONIC, pl_now_ns's clock: capture to this line */
         const double latency_ms = camera ? (double)(pl_now_ns() - fr.t_ns) / 1e6 : -1.0;
-        if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms,
+        if (fr.index + 1 > pass_frames) pass_frames = fr.index + 1;
+        if (format_line(line, sizeof line, frame_base + fr.index, fr.t_ns, source, &L, &tm, total_ms,
                         latency_ms, dropped) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;

@@ -319,6 +319,11 @@ int pl_sink_write(pl_sink *s, const char *line, size_t len)
     return pl_error(PL_E_INTERNAL, "sink '%s': bad kind", s->spec);
 }
 
+int pl_sink_service(pl_sink *s)
+{
+    return s && (s->kind == SINK_TCP || s->kind == SINK_UNIX) ? sink_server_service(s) : 0;
+}
+
 int pl_sink_next_event(pl_sink *s, char *msg, size_t cap)
 {
     if (!s || !msg || cap == 0) return 0;
@@ -425,6 +430,14 @@ int pl_sinks_write(pl_sinks *m, const char *line, size_t len)
     }
     if (first < 0) return pl_error(first, "%s", msg);
     return 0;
+}
+
+int pl_sinks_service(pl_sinks *m)
+{
+    int n = 0;
+    for (int i = 0; m && i < m->n; i++)
+        n += pl_sink_service(m->sink[i]);
+    return n;
 }
 
 int pl_sinks_next_event(pl_sinks *m, char *msg, size_t cap)

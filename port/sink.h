@@ -107,6 +107,11 @@ int pl_sink_open_opts(const char *spec, const pl_sink_options *opts, pl_sink **o
  * usable either way. */
 int pl_sink_write(pl_sink *sink, const char *line, size_t len);
 
+/* Accepts pending readers and reads what they sent (tokens), without writing a line: for a
+ * caller waiting for readers before its first line. Returns the readers admitted now (connected
+ * and past the token, if any); 0 for stdout and udp. */
+int pl_sink_service(pl_sink *sink);
+
 /* Copies the oldest pending event message into msg (cap bytes, truncated, NUL-terminated) and
  * returns 1, or returns 0 when there is none. At most 32 are kept; older ones are lost and one
  * message says how many. */
@@ -139,6 +144,9 @@ int pl_sinks_open(const char *const *specs, int n, const pl_sink_options *opts, 
 /* Writes the line to every sink. Returns 0, or the first sink's negative status (message names
  * it) after still writing to all the others. */
 int pl_sinks_write(pl_sinks *sinks, const char *line, size_t len);
+
+/* pl_sink_service on every sink: the readers admitted now, summed. */
+int pl_sinks_service(pl_sinks *sinks);
 
 /* Pending event of any sink, as pl_sink_next_event. */
 int pl_sinks_next_event(pl_sinks *sinks, char *msg, size_t cap);

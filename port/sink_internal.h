@@ -73,6 +73,8 @@ int sink_server_init(pl_sink *s, const pl_sink_options *opts);
 int sink_server_open_tcp(pl_sink *s, const sink_spec *sp);
 int sink_server_open_unix(pl_sink *s, const sink_spec *sp);
 int sink_server_write(pl_sink *s, const char *line, size_t len);
+/* Accepts and services clients; returns the admitted ones (pl_sink_service). */
+int sink_server_service(pl_sink *s);
 /* Flushes, closes every socket, unlinks an owned Unix socket, frees the slots. Safe on a sink
  * whose open failed part way. */
 void sink_server_close(pl_sink *s);

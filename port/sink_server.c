@@ -313,6 +313,16 @@ int sink_server_write(pl_sink *s, const char *line, size_t len)
     return 0;
 }
 
+int sink_server_service(pl_sink *s)
+{
+    accept_pending(s);
+    service_clients(s);
+    int n = 0;
+    for (int i = 0; i < s->max_clients; i++)
+        n += s->clients[i].fd >= 0 && !s->clients[i].pending;
+    return n;
+}
+
 int sink_server_open_tcp(pl_sink *s, const sink_spec *sp)
 {
     struct addrinfo hints, *res = NULL;

@@ -2,7 +2,8 @@
 # Who may read parlight estimate's stream (docs/OUTPUT.md, "Who can read the stream"), end to end:
 # --max-clients (a reader over the cap is told why, then EOF), --token-file (a reader must send
 # the token first; a wrong one is told so), --unix-mode (the socket file's bits, 600 by default),
-# and a connect storm that prints a few lines and a count instead of one line per connection.
+# a connect storm that prints a few lines and a count instead of one line per connection, and
+# the replay flags that serve readers: --loop and --wait-clients.
 # Bad values of the three flags are usage errors naming the problem; a FIFO as --token-file is
 # refused, not waited on.
 # needs: opencv (tests/run.sh skips this test in a build without it)
@@ -104,6 +105,54 @@ kill -TERM $pid
 wait $pid
 grep -q "client [0-9]* (127.0.0.1:[0-9]*) refused: wrong token" "$T/tcp.err" ||
     fail "no log line for the wrong token: $(cat "$T/tcp.err")"
+
+# --- --loop: numbering goes on, the same file gives the same lights each pass ---
+mkdir -p "$T/five" "$T/junk"
+ls tests/data/frames/*.jpg | head -n 5 | while read -r f; do ln -s "$PWD/$f" "$T/five/"; done
+echo "not an image" >"$T/junk/a.jpg"
+expect 0 "" -- "$P" estimate --model "$M" --input "$T/five" --loop --n-frames 12
+$PY - "$T/out" <<'PYEOF' && ok "--loop: 12 frames over 3 passes of 5, numbered 0..11" || fail "--loop output"
+import json, sys
+f = [json.loads(l) for l in open(sys.argv[1])]
+assert [x["frame"] for x in f] == list(range(12)), [x["frame"] for x in f]
+for k in range(7):
+    assert f[k]["lights"] == f[k + 5]["lights"] and f[k]["source"] == f[k + 5]["source"], k
+PYEOF
+expect 1 "no usable frame in a whole pass" -- "$P" estimate --model "$M" --input "$T/junk" --loop
+expect 2 "loop replays files" -- "$P" estimate --model "$M" --camera v4l2:/dev/video0 --loop
+expect 2 "wait-clients needs a server" -- "${run[@]}" --wait-clients 1
+expect 2 "wait-clients" -- "${run[@]}" --wait-clients 0 --out tcp://127.0.0.1:0
+
+# --- --wait-clients 1: nothing is estimated before the reader, which then gets frame 0 on ---
+"$P" estimate --model "$M" --input "$T/five" --out tcp://127.0.0.1:0 --wait-clients 1 \
+    >/dev/null 2>"$T/wait.err" &
+pid=$!
+$PY - "$T/wait.err" <<'PYEOF' || fail "--wait-clients (above)"
+import json, re, socket, sys, time
+for _ in range(600):
+    m = re.search(r"listening on 127\.0\.0\.1:(\d+)", open(sys.argv[1]).read())
+    if m:
+        break
+    time.sleep(0.1)
+else:
+    sys.exit("no 'listening on' line")
+time.sleep(1.5)
+assert "waiting for 1 reader" in open(sys.argv[1]).read()
+s = socket.create_connection(("127.0.0.1", int(m.group(1))))
+frames = [json.loads(l)["frame"] for l in s.makefile("r")]
+assert frames == [0, 1, 2, 3, 4], frames
+print("ok   --wait-clients 1: the reader that came 1.5 s late got frames 0..4")
+PYEOF
+wait $pid || fail "--wait-clients run exited $?"
+"$P" estimate --model "$M" --input "$T/five" --out tcp://127.0.0.1:0 --wait-clients 1 \
+    >/dev/null 2>"$T/wait2.err" &
+pid=$!
+for _ in $(seq 300); do grep -q "waiting for 1 reader" "$T/wait2.err" && break; sleep 0.1; done
+kill -TERM $pid
+wait $pid
+rc=$?
+[ $rc -eq 0 ] && grep -q "stopped by a signal before the first frame" "$T/wait2.err" &&
+    ok "SIGTERM while waiting for readers: exit 0" || fail "SIGTERM while waiting: exit $rc, $(cat "$T/wait2.err")"
 
 # --- a connect storm: a few log lines and a count, not one line per connection ---
 "$P" estimate --model "$M" --input "$T/frames" --fps-cap 10 --out tcp://127.0.0.1:0 \
