@@ -170,7 +170,13 @@ static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const
     PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[", (double)dir[0],
         (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1], (double)rgb[2]);
     for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)sh[k]);
-    PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f", tm->preprocess_ms,
+    pl_engine_lighting E;
+    pl_lighting_engine(L, &E);
+    PUT("],\"engine\":{\"dir\":[%.6g,%.6g,%.6g],\"intensity\":[%.6g,%.6g,%.6g],\"sh9\":[",
+        (double)E.dir[0], (double)E.dir[1], (double)E.dir[2], (double)E.intensity[0],
+        (double)E.intensity[1], (double)E.intensity[2]);
+    for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)E.sh9[k]);
+    PUT("]},\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f", tm->preprocess_ms,
         tm->infer_ms, total_ms);
     if (latency_ms >= 0) PUT(",\"latency\":%.3f", latency_ms);
     PUT("},\"dropped\":%lld}\n", (long long)dropped);
