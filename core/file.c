@@ -8,8 +8,7 @@
 
 #include "core/util.h"
 
-/* "is a FIFO" for anything but a regular file, else NULL. */
-static const char *not_regular(mode_t mode)
+const char *pl_file_not_regular(unsigned mode)
 {
     if (S_ISREG(mode)) return NULL;
     if (S_ISFIFO(mode)) return "is a FIFO";
@@ -33,7 +32,7 @@ int pl_file_open_regular(const char *path, const char *what, int *fd, int64_t *s
     struct stat st;
     const char *type;
     if (stat(path, &st) < 0) return open_failed(path, what, errno);
-    if ((type = not_regular(st.st_mode)))
+    if ((type = pl_file_not_regular(st.st_mode)))
         return pl_error(PL_E_IO, "%s: %s, expected a regular file", path, type);
     int f = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (f < 0) return open_failed(path, what, errno);
@@ -42,7 +41,7 @@ int pl_file_open_regular(const char *path, const char *what, int *fd, int64_t *s
         close(f);
         return pl_error(PL_E_IO, "%s: cannot stat: %s", path, strerror(err));
     }
-    if ((type = not_regular(st.st_mode))) { /* replaced between stat and open */
+    if ((type = pl_file_not_regular(st.st_mode))) { /* replaced between stat and open */
         close(f);
         return pl_error(PL_E_IO, "%s: %s, expected a regular file", path, type);
     }

@@ -23,4 +23,8 @@ int pl_file_open_regular(const char *path, const char *what, int *fd, int64_t *s
 /* The same, as a stdio stream opened "rb" (the caller fcloses it). */
 int pl_file_fopen_regular(const char *path, const char *what, FILE **f);
 
+/* "is a FIFO", "is a character device", "is a block device", "is a directory", "is a socket"
+ * for a st_mode from stat(2); NULL for a regular file. */
+const char *pl_file_not_regular(unsigned mode);
+
 #endif
