@@ -282,6 +282,7 @@ int cmd_estimate(int argc, char **argv)
         return st_open == PL_E_ARG ? 2 : 1;
     }
     if (stop_requested) goto stopped;
+    reload_requested = 0; /* a SIGHUP before the first load asks for what it is about to read */
     if (load_model(model_path, threads, have_anchor ? anchor : NULL, &model) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
