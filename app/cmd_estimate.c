@@ -55,7 +55,7 @@ static void help(FILE *f)
             "SIGINT or SIGTERM finishes the frame in flight (if any), flushes the outputs,\n"
             "removes a unix: socket and exits 0, also when it comes during start-up.\n"
             "SIGHUP reloads the model from the same path between two frames; a file that does\n"
-            "not load leaves the current model running (docs/OUTPUT.md, \"Updating the model\").\n");
+            "not load leaves the current model running (docs/OUTPUT.md, \"Signals\").\n");
 }
 
 static volatile sig_atomic_t stop_requested, reload_requested;
