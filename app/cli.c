@@ -1,7 +1,6 @@
 #include "app/cli.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,6 +8,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/file.h"
+#include "core/util.h"
 #include "light/light.h"
 
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out)
@@ -102,25 +103,22 @@ int cli_getopt_error(const char *cmd, int c, char *const argv[])
 
 int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
 {
-    /* non-blocking open: a FIFO given by mistake is refused below instead of hanging here */
-    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    int fd = -1;
     struct stat st;
     const char *why = NULL;
-    if (fd < 0)
-        why = strerror(errno);
-    else if (fstat(fd, &st) != 0)
-        why = strerror(errno);
-    else if (!S_ISREG(st.st_mode))
-        why = "not a regular file";
-    else if (st.st_mode & S_IROTH)
-        why = "readable by every user: a secret must not be (chmod o-r)";
     char buf[1024];
     ssize_t n = 0;
-    if (!why) {
-        n = read(fd, buf, sizeof buf - 1);
-        if (n < 0) why = strerror(errno);
+    if (pl_file_open_regular(path, "token file", &fd, NULL) < 0) {
+        fprintf(stderr, "parlight %s: --token-file %s\n", cmd, pl_last_error());
+        return -1;
     }
-    if (fd >= 0) close(fd);
+    if (fstat(fd, &st) != 0)
+        why = strerror(errno);
+    else if (st.st_mode & S_IROTH)
+        why = "readable by every user: a secret must not be (chmod o-r)";
+    else if ((n = read(fd, buf, sizeof buf - 1)) < 0)
+        why = strerror(errno);
+    close(fd);
     if (!why) {
         buf[n] = '\0';
         size_t len = strcspn(buf, "\n");

@@ -65,15 +65,65 @@ static void help(FILE *f)
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
             "                  (docs/LIGHTING.md, \"Intensity anchor\")\n\n"
-            "SIGINT or SIGTERM finishes the frame in flight, flushes the outputs and exits 0.\n");
+            "SIGINT or SIGTERM finishes the frame in flight (if any), flushes the outputs,\n"
+            "removes a unix: socket and exits 0, also when it comes during start-up.\n"
+            "SIGHUP reloads the model from the same path between two frames; a file that does\n"
+            "not load leaves the current model running (docs/OUTPUT.md, \"Signals\").\n");
 }
 
-static volatile sig_atomic_t stop_requested;
+static volatile sig_atomic_t stop_requested, reload_requested;
 
-static void on_stop_signal(int sig)
+static void on_signal(int sig)
 {
-    (void)sig;
-    stop_requested = 1;
+    if (sig == SIGHUP)
+        reload_requested = 1;
+    else
+        stop_requested = 1;
+}
+
+/* SIGINT and SIGTERM ask the loop to stop, SIGHUP to reload the model; the handlers only set a
+ * flag, so they can be installed before anything else and the work happens between frames. */
+static void install_signals(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal; /* no SA_RESTART: a blocking read returns EINTR */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+}
+
+/* Loads the model at `path` with the run's settings; on failure pl_last_error() says why and
+ * *out is NULL. */
+static int load_model(const char *path, int threads, const double *anchor, pl_model **out)
+{
+    int rc = pl_model_load(path, out);
+    if (rc == PL_OK) rc = pl_model_set_threads(*out, threads);
+    if (rc == PL_OK && anchor) rc = pl_model_set_anchor(*out, anchor[0], anchor[1], anchor[2]);
+    if (rc < 0) {
+        pl_model_free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
+/* SIGHUP: the model is loaded anew from `path` (a new file renamed over it, or the same file),
+ * verified, and replaces *model; the temporal filter starts again, as the new model's lights
+ * have nothing to do with the old ones. A file that does not load leaves *model as it was. */
+static void reload_model(const char *path, int threads, const double *anchor, float alpha,
+                         pl_model **model, pl_smoother *smoother)
+{
+    pl_model *fresh;
+    if (load_model(path, threads, anchor, &fresh) < 0) {
+        fprintf(stderr, "parlight estimate: SIGHUP: keeping the current model: %s\n",
+                pl_last_error());
+        return;
+    }
+    pl_model_free(*model);
+    *model = fresh;
+    pl_smoother_init(smoother, alpha);
+    fprintf(stderr, "parlight estimate: SIGHUP: model reloaded from %s\n", path);
 }
 
 /* Sleeps until the monotonic time `until_ns`, waking early on a stop request. */
@@ -119,10 +169,7 @@ static int wait_for_readers(pl_sinks *sinks, int n, pl_ratelimit *event_limit)
         while (pl_sinks_next_event(sinks, event, sizeof event))
             log_limited(event_limit, "", event);
         if (have >= n) return 0;
-        if (stop_requested) {
-            fprintf(stderr, "parlight estimate: stopped by a signal before the first frame\n");
-            return -1;
-        }
+        if (stop_requested) return -1;
         struct timespec ts = {0, 20000000};
         nanosleep(&ts, NULL);
     }
@@ -215,6 +262,7 @@ int cmd_estimate(int argc, char **argv)
     pl_sink_options sink_opts = {0, 0, NULL, 0};
     const char *token_file = NULL;
     char token[PL_SINK_TOKEN_MAX + 1];
+    install_signals(); /* first: a service may be stopped while it loads (issue 25) */
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:LW:h", opts, NULL)) != -1) {
         switch (c) {
@@ -324,10 +372,18 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: --smooth: %s\n", pl_last_error());
         return 2;
     }
+    long long done = 0, skipped = 0, done_at_pass = 0;
+    int64_t frame_base = 0, pass_frames = 0; /* --loop: frame numbers go on across passes */
+    pl_ratelimit warn_limit, event_limit;    /* a storm prints a few lines and a count */
+    pl_ratelimit_init(&warn_limit, LOG_BURST, LOG_WINDOW_NS);
+    pl_ratelimit_init(&event_limit, LOG_BURST, LOG_WINDOW_NS);
     if (token_file) {
         if (cli_read_token("estimate", token_file, token, sizeof token) < 0) return 2;
         sink_opts.token = token;
     }
+    /* a stop request is honoured between the steps of start-up as between frames: each step
+     * may take a while (model load, camera open) and every exit goes through `out` */
+    if (stop_requested) goto stopped;
     int st_open = pl_sinks_open(outs, n_outs, &sink_opts, &sinks);
     if (st_open < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
@@ -339,28 +395,20 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: %s: listening on %s%s\n", pl_sink_spec(k),
                     pl_sink_address(k), sink_opts.token ? " (readers send the token first)" : "");
     }
-    if (pl_model_load(model_path, &model) < 0 || pl_model_set_threads(model, threads) < 0 ||
-        (have_anchor && pl_model_set_anchor(model, anchor[0], anchor[1], anchor[2]) < 0)) {
+    if (stop_requested) goto stopped;
+    reload_requested = 0; /* a SIGHUP before the first load asks for what it is about to read */
+    if (load_model(model_path, threads, have_anchor ? anchor : NULL, &model) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
+    if (stop_requested) goto stopped;
     if ((camera ? pl_source_open_camera(camera, &src) : pl_source_open_path(input, &src)) < 0) {
+        if (stop_requested) goto stopped; /* an open interrupted by the signal */
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_stop_signal; /* no SA_RESTART: a blocking read returns EINTR */
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    pl_ratelimit warn_limit, event_limit; /* a storm prints a few lines and a count */
-    pl_ratelimit_init(&warn_limit, LOG_BURST, LOG_WINDOW_NS);
-    pl_ratelimit_init(&event_limit, LOG_BURST, LOG_WINDOW_NS);
-    if (wait_clients && wait_for_readers(sinks, wait_clients, &event_limit) < 0) {
-        rc = 0; /* stopped by a signal while waiting: nothing was estimated, nothing is lost */
-        goto out;
-    }
+    if (stop_requested) goto stopped;
+    if (wait_clients && wait_for_readers(sinks, wait_clients, &event_limit) < 0) goto stopped;
     /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
      * newest frame wins and the ones replaced unseen are counted in "dropped" */
     if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
@@ -368,14 +416,17 @@ int cmd_estimate(int argc, char **argv)
         goto out;
     }
 
-    long long done = 0, skipped = 0, done_at_pass = 0;
-    int64_t frame_base = 0, pass_frames = 0; /* --loop: frame numbers go on across passes */
     int64_t prev_t_ns = 0, last_start = 0;
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
         if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap));
         if (stop_requested) break;
+        if (reload_requested) {
+            reload_requested = 0;
+            reload_model(model_path, threads, have_anchor ? anchor : NULL, alpha, &model,
+                         &smoother);
+        }
         pl_frame fr;
         int64_t dropped = 0;
         int st;
@@ -473,6 +524,7 @@ int cmd_estimate(int argc, char **argv)
     log_held(&warn_limit, "sink warnings");
     log_held(&event_limit, "sink messages");
     if (stop_requested) {
+    stopped:
         fprintf(stderr, "parlight estimate: stopped by a signal after %lld frame%s\n", done,
                 done == 1 ? "" : "s");
         rc = 0;

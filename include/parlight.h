@@ -68,8 +68,10 @@ typedef struct pl_lighting {
 
 typedef struct pl_model pl_model;
 
-/* Loads and validates a .plm file (docs/FORMAT.md), maps it, and plans the one arena that every
- * later pl_estimate_* call runs in. Nothing is allocated per frame afterwards. */
+/* Loads and validates a .plm file (docs/FORMAT.md), reads it whole into memory the model owns
+ * (the file can then be changed or removed without effect on the model), and plans the one
+ * arena that every later pl_estimate_* call runs in. Nothing is allocated per frame afterwards.
+ * A path that is not a regular file (a FIFO, a device, a directory) is refused without blocking. */
 int pl_model_load(const char *path, pl_model **out);
 void pl_model_free(pl_model *model);
 

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/file.h"
 #include "core/util.h"
 
 /* Whole files are read into memory; RGBE files above this size are refused (a 32768 x 8192
@@ -40,9 +41,9 @@ static int alloc_rgb(pl_image_f32 *img, int w, int h, const char *path)
 /* Reads the whole file (at most `max` bytes) into a malloc'ed buffer. */
 static int read_file(const char *path, size_t max, unsigned char **buf, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, strerror(errno));
-    int st = PL_OK;
+    FILE *f;
+    int st = pl_file_fopen_regular(path, NULL, &f);
+    if (st < 0) return st;
     unsigned char *b = NULL;
     size_t cap = 0, n = 0;
     for (;;) {
@@ -354,11 +355,11 @@ int pl_hdr_read(const char *path, pl_image_f32 *out)
 {
     if (!path || !out) return pl_error(PL_E_ARG, "pl_hdr_read: NULL argument");
     unsigned char magic[4] = {0};
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, strerror(errno));
+    FILE *f; /* refuses a FIFO before OpenEXR could open it (blocking) by name */
+    int st = pl_file_fopen_regular(path, NULL, &f);
+    if (st < 0) return st;
     size_t got = fread(magic, 1, 4, f);
     fclose(f);
-    int st;
     if (got == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01) {
         st = pl_exr_read_file(path, out);
     } else if (got >= 2 && magic[0] == '#' && magic[1] == '?') {

@@ -4,6 +4,7 @@
  * the first scan; BMP: all pixel rows present), and only then a decoder runs: libjpeg / libpng
  * directly for JPEG and PNG (port/jpeg_codec.c, port/png_codec.c), OpenCV for the other formats
  * (port/image_io.cpp) when this build has it. See port/image_codec.h and docs/PORTING.md. */
+#include "core/file.h"
 #include "core/util.h"
 #include "port/image.h"
 #include "port/image_codec.h"
@@ -216,27 +217,33 @@ static int parse_header(const char *path, const uint8_t *p, size_t n, header *h)
 /* Reads the whole regular file at `path`, with a message for each way that can fail. */
 static int read_file(const char *path, uint8_t **out, size_t *size)
 {
-    struct stat st;
     *out = NULL;
     *size = 0;
-    if (stat(path, &st) != 0)
-        return pl_error(PL_E_IO, "%s: cannot open image: %s", path, strerror(errno));
-    if (S_ISDIR(st.st_mode)) return pl_error(PL_E_IO, "%s: is a directory, not an image file", path);
-    if (!S_ISREG(st.st_mode)) return pl_error(PL_E_IO, "%s: not a regular file", path);
-    if (st.st_size == 0) return pl_error(PL_E_FORMAT, "%s: empty file (0 bytes), not an image", path);
-    if (st.st_size > MAX_FILE_BYTES)
+    int fd;
+    int64_t bytes;
+    int rc = pl_file_open_regular(path, "image", &fd, &bytes);
+    if (rc < 0) return rc;
+    if (bytes == 0 || bytes > MAX_FILE_BYTES) {
+        close(fd);
+        if (bytes == 0)
+            return pl_error(PL_E_FORMAT, "%s: empty file (0 bytes), not an image", path);
         return pl_error(PL_E_FORMAT,
                         "%s: file of %lld bytes is larger than the %lld accepted for an image",
-                        path, (long long)st.st_size, MAX_FILE_BYTES);
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open image: %s", path, strerror(errno));
-    uint8_t *buf = malloc((size_t)st.st_size);
+                        path, (long long)bytes, MAX_FILE_BYTES);
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        int err = errno;
+        close(fd);
+        return pl_error(PL_E_IO, "%s: cannot open image: %s", path, strerror(err));
+    }
+    uint8_t *buf = malloc((size_t)bytes);
     if (!buf) {
         fclose(f);
         return pl_error(PL_E_NOMEM, "%s: cannot allocate %lld bytes to read it", path,
-                        (long long)st.st_size);
+                        (long long)bytes);
     }
-    const size_t got = fread(buf, 1, (size_t)st.st_size, f);
+    const size_t got = fread(buf, 1, (size_t)bytes, f);
     const int err = ferror(f) ? errno : 0;
     fclose(f);
     if (err) {

@@ -31,10 +31,10 @@ expect 2 "max-clients" -- "${run[@]}" --max-clients 0
 expect 2 "max-clients" -- "${run[@]}" --max-clients 5000
 expect 2 "unix-mode '999'" -- "${run[@]}" --unix-mode 999
 expect 2 "owner's write bit" -- "${run[@]}" --unix-mode 400
-expect 2 "token-file $T/missing: No such file" -- "${run[@]}" --token-file "$T/missing"
-expect 2 "not a regular file" -- "${run[@]}" --token-file "$T/frames"
+expect 2 "token-file $T/missing: cannot open token file: No such file" -- "${run[@]}" --token-file "$T/missing"
+expect 2 "frames: is a directory, expected a regular file" -- "${run[@]}" --token-file "$T/frames"
 mkfifo "$T/fifo"
-EXPECT_TIMEOUT=10 expect 2 "fifo: not a regular file" -- "${run[@]}" --token-file "$T/fifo"
+EXPECT_TIMEOUT=10 expect 2 "fifo: is a FIFO, expected a regular file" -- "${run[@]}" --token-file "$T/fifo"
 cp "$T/token" "$T/open-token" && chmod 644 "$T/open-token"
 expect 2 "readable by every user" -- "${run[@]}" --token-file "$T/open-token"
 : >"$T/empty-token" && chmod 600 "$T/empty-token"
@@ -151,7 +151,7 @@ for _ in $(seq 300); do grep -q "waiting for 1 reader" "$T/wait2.err" && break; 
 kill -TERM $pid
 wait $pid
 rc=$?
-[ $rc -eq 0 ] && grep -q "stopped by a signal before the first frame" "$T/wait2.err" &&
+[ $rc -eq 0 ] && grep -q "stopped by a signal after 0 frames" "$T/wait2.err" &&
     ok "SIGTERM while waiting for readers: exit 0" || fail "SIGTERM while waiting: exit $rc, $(cat "$T/wait2.err")"
 
 # --- a connect storm: a few log lines and a count, not one line per connection ---
