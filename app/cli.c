@@ -139,3 +139,23 @@ int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
     }
     return 0;
 }
+
+int cli_quat(const char *cmd, const char *s, double q[4])
+{
+    const char *p = s;
+    for (int i = 0; i < 4; i++) {
+        char *end;
+        errno = 0;
+        q[i] = strtod(p, &end);
+        if (errno || end == p || !isfinite(q[i])) goto bad;
+        p = end;
+        if (i < 3 && *p++ != ',') goto bad;
+    }
+    if (*p == '\0') return 0;
+bad:
+    fprintf(stderr,
+            "parlight %s: --orientation '%s': expected a unit quaternion W,X,Y,Z (camera to "
+            "world)\n",
+            cmd, s);
+    return -1;
+}

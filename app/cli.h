@@ -7,6 +7,8 @@
 /* Each returns 0 on success, or prints "parlight <cmd>: --flag: <problem>" and returns -1. */
 int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, int *out);
 int cli_float3(const char *cmd, const char *flag, const char *s, float out[3]);
+/* --orientation W,X,Y,Z: four finite numbers (unit length is checked by pl_quat_to_rotation). */
+int cli_quat(const char *cmd, const char *s, double q[4]);
 /* A number in [lo, hi], or in (lo, hi] when lo_open. */
 int cli_double(const char *cmd, const char *flag, const char *s, double lo, double hi, int lo_open,
                double *out);

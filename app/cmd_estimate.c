@@ -10,10 +10,12 @@
 
 #include "app/cli.h"
 #include "app/commands.h"
+#include "app/poses.h"
 #include "core/ratelimit.h"
 #include "core/util.h"
 #include "light/light.h"
 #include "light/lights_json.h"
+#include "light/pose.h"
 #include "light/temporal.h"
 #include "parlight.h"
 #include "port/capture.h"
@@ -57,6 +59,12 @@ static void help(FILE *f)
             "                  frames that arrive while the network is busy are dropped and\n"
             "                  counted in \"dropped\" (cameras always run this way)\n"
             "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
+            "  --orientation W,X,Y,Z  camera-to-world rotation (unit quaternion) of a fixed camera:\n"
+            "                  lights, primary, sh9, engine and --at in world space\n"
+            "  --gravity X,Y,Z gravity measured in the camera frame (an IMU): world space with y\n"
+            "                  up, yaw following the camera\n"
+            "  --poses FILE    a camera-to-world quaternion per frame, JSON lines keyed by \"frame\"\n"
+            "                  or \"t_ns\" (docs/OUTPUT.md, \"World space\")\n"
             "  --loop          --input only: start again at the end (frame numbers go on), until\n"
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
@@ -189,8 +197,8 @@ static int finite_lighting(const pl_lighting *L)
 
 /* Writes one JSON line for a frame; returns 0, or -1 when the line does not fit (a bug). */
 static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const char *source,
-                       const pl_lighting *L, const pl_timing *tm, double total_ms,
-                       double latency_ms, int64_t dropped)
+                       const double *orientation, const pl_lighting *L, const pl_timing *tm,
+                       double total_ms, double latency_ms, int64_t dropped)
 {
     size_t n = 0;
     int w;
@@ -207,7 +215,11 @@ static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const
         else if (ch < 0x20) PUT("\\u%04x", ch);
         else PUT("%c", ch);
     }
-    PUT("\",");
+    if (orientation)
+        PUT("\",\"space\":\"world\",\"orientation\":[%.6g,%.6g,%.6g,%.6g],", orientation[0],
+            orientation[1], orientation[2], orientation[3]);
+    else
+        PUT("\",\"space\":\"camera\",");
     w = pl_lighting_format_json(L, buf + n, cap - n);
     if (w < 0) return -1;
     n += (size_t)w;
@@ -248,6 +260,9 @@ int cmd_estimate(int argc, char **argv)
                                          {"unix-mode", required_argument, 0, 'U'},
                                          {"token-file", required_argument, 0, 'T'},
                                          {"loop", no_argument, 0, 'L'},
+                                         {"orientation", required_argument, 0, 'O'},
+                                         {"gravity", required_argument, 0, 'G'},
+                                         {"poses", required_argument, 0, 'P'},
                                          {"wait-clients", required_argument, 0, 'W'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
@@ -256,6 +271,10 @@ int cmd_estimate(int argc, char **argv)
     float at[3] = {0, 0, 0}, alpha = -1.0f;
     double fps_cap = 0.0;
     int realtime = 0, have_anchor = 0, loop = 0, wait_clients = 0;
+    int have_orient = 0, n_pose_flags = 0;
+    double fixed_q[4], fixed_R[9];
+    const char *poses_path = NULL;
+    cli_poses poses = {0};
     double anchor[3];
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
@@ -264,7 +283,7 @@ int cmd_estimate(int argc, char **argv)
     char token[PL_SINK_TOKEN_MAX + 1];
     install_signals(); /* first: a service may be stopped while it loads (issue 25) */
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:LW:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:LW:O:G:P:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
@@ -325,6 +344,26 @@ int cmd_estimate(int argc, char **argv)
         }
         case 'T': token_file = optarg; break;
         case 'L': loop = 1; break;
+        case 'O':
+            if (cli_quat("estimate", optarg, fixed_q) < 0) return 2;
+            have_orient = 1;
+            n_pose_flags++;
+            break;
+        case 'G': {
+            float g[3];
+            if (cli_float3("estimate", "--gravity", optarg, g) < 0) return 2;
+            if (pl_rotation_from_gravity(g, fixed_R, fixed_q) < 0) {
+                fprintf(stderr, "parlight estimate: --gravity: %s\n", pl_last_error());
+                return 2;
+            }
+            have_orient = 1;
+            n_pose_flags++;
+            break;
+        }
+        case 'P':
+            poses_path = optarg;
+            n_pose_flags++;
+            break;
         case 'W':
             if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
                         &wait_clients) < 0)
@@ -346,6 +385,15 @@ int cmd_estimate(int argc, char **argv)
     }
     if (input && camera) {
         fprintf(stderr, "parlight estimate: --input and --camera exclude each other\n");
+        return 2;
+    }
+    if (n_pose_flags > 1) {
+        fprintf(stderr, "parlight estimate: --orientation, --gravity and --poses exclude each "
+                        "other\n");
+        return 2;
+    }
+    if (have_orient && pl_quat_to_rotation(fixed_q, fixed_R) < 0) {
+        fprintf(stderr, "parlight estimate: --orientation: %s\n", pl_last_error());
         return 2;
     }
     if (loop && camera) {
@@ -384,10 +432,15 @@ int cmd_estimate(int argc, char **argv)
     /* a stop request is honoured between the steps of start-up as between frames: each step
      * may take a while (model load, camera open) and every exit goes through `out` */
     if (stop_requested) goto stopped;
+    if (poses_path && cli_poses_load(poses_path, &poses) < 0) {
+        fprintf(stderr, "parlight estimate: --poses %s\n", pl_last_error());
+        return 2;
+    }
     int st_open = pl_sinks_open(outs, n_outs, &sink_opts, &sinks);
     if (st_open < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
-        return st_open == PL_E_ARG ? 2 : 1;
+        rc = st_open == PL_E_ARG ? 2 : 1;
+        goto out;
     }
     for (int i = 0; i < pl_sinks_count(sinks); i++) { /* where readers connect (port 0 too) */
         const pl_sink *k = pl_sinks_get(sinks, i);
@@ -477,9 +530,24 @@ int cmd_estimate(int argc, char **argv)
         double dt_s = done ? (double)(fr.t_ns - prev_t_ns) / 1e9 : 0.0;
         if (done && !(dt_s > 0.0 && dt_s <= 10.0)) dt_s = 1.0 / 30.0;
         prev_t_ns = fr.t_ns;
-        if (pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
-                             fr.image.stride, &L, &tm) < 0 ||
-            pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
+        /* world space (--orientation, --gravity, --poses): turned before the filter, so that
+         * turning the camera does not smear the lights; --at is then in world axes */
+        double q[4], R[9];
+        const double *orient = have_orient ? fixed_q : NULL;
+        if (poses.n) {
+            if (cli_poses_lookup(&poses, frame_base + fr.index, fr.t_ns, q) < 0 ||
+                pl_quat_to_rotation(q, R) < 0) {
+                fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+                goto out;
+            }
+            orient = q;
+        } else if (have_orient) {
+            memcpy(R, fixed_R, sizeof R);
+        }
+        int est = pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
+                                   fr.image.stride, &L, &tm);
+        if (est == 0 && orient) pl_lighting_rotate(&L, R, &L);
+        if (est < 0 || pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {
             fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
             goto out;
@@ -498,8 +566,8 @@ int cmd_estimate(int argc, char **argv)
         /* cameras stamp frames with CLOCK_MONOTONIC, pl_now_ns's clock: capture to this line */
         const double latency_ms = camera ? (double)(pl_now_ns() - fr.t_ns) / 1e6 : -1.0;
         if (fr.index + 1 > pass_frames) pass_frames = fr.index + 1;
-        if (format_line(line, sizeof line, frame_base + fr.index, fr.t_ns, source, &L, &tm, total_ms,
-                        latency_ms, dropped) < 0) {
+        if (format_line(line, sizeof line, frame_base + fr.index, fr.t_ns, source, orient, &L, &tm,
+                        total_ms, latency_ms, dropped) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
@@ -539,6 +607,7 @@ int cmd_estimate(int argc, char **argv)
     }
     rc = 0;
 out:
+    cli_poses_free(&poses);
     pl_capture_stop(cap);
     pl_sinks_close(sinks);
     pl_source_close(src);
