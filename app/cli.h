@@ -11,6 +11,13 @@ int cli_double(const char *cmd, const char *flag, const char *s, double lo, doub
 /* --anchor: "off" (w = b = 0, gamma 2.2) or W,B or W,B,GAMMA (pl_model_set_anchor's ranges). */
 int cli_anchor(const char *cmd, const char *s, double out[3]);
 
+/* --max-pixels N, the same in every command that reads images or panoramas: the read limit
+ * (core/image.h: pl_image_set_max_pixels), 1..PL_IMAGE_MAX_PIXELS. The getopt_long value is
+ * CLI_OPT_MAX_PIXELS. Prints "parlight <cmd>: --max-pixels ..." and returns -1 when out of range.
+ */
+enum { CLI_OPT_MAX_PIXELS = 0x4d50 };
+int cli_max_pixels(const char *cmd, const char *s);
+
 /* For getopt_long's ':' (an option without its value; the optstring must start with ':') and
  * '?' (an unknown option, or a value given to one that takes none) results `c`: prints
  * "parlight <cmd>: ..." naming the option as the user wrote it and returns 2, the exit status

@@ -21,38 +21,41 @@
 
 static void help(FILE *f)
 {
-    fprintf(f,
-            "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
-            "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
-            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n\n"
-            "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
-            "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
-            "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
-            "frame on stdout (schema: docs/OUTPUT.md).\n\n"
-            "  --model M.plm   model file (see parlight info)\n"
-            "  --input PATH    image, video or directory\n"
-            "  --camera SPEC   a live camera instead: v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]],\n"
-            "                  FORMAT yuyv|nv12|rgb24|mjpeg (see parlight cameras, docs/CAMERAS.md)\n"
-            "                  or libcamera[:ID|N] (libcamera's first, N-th or named camera)\n"
-            "  --n-frames K    stop after K frames (default: all)\n"
-            "  --threads N     worker threads, 1..64 (default 1); results do not depend on N\n"
-            "  --at X,Y,Z      report the lighting seen from this point (metres, camera frame)\n"
-            "                  instead of from the camera\n"
-            "  --smooth ALPHA  temporal filter, weight of the newest frame in (0, 1]: lights keep\n"
-            "                  their identity across frames and fade in and out; 1 = off.\n"
-            "                  Default: 0.5 for --camera, off for --input (files are often unrelated)\n"
-            "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
-            "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
-            "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n"
-            "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
-            "                  frames that arrive while the network is busy are dropped and\n"
-            "                  counted in \"dropped\" (cameras always run this way)\n"
-            "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
-            "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
-            "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
-            "                  luminance over the lighting's); off: the network's intensity\n"
-            "                  (docs/LIGHTING.md, \"Intensity anchor\")\n\n"
-            "SIGINT or SIGTERM finishes the frame in flight, flushes the outputs and exits 0.\n");
+    fprintf(
+        f,
+        "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
+        "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
+        "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n\n"
+        "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
+        "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
+        "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
+        "frame on stdout (schema: docs/OUTPUT.md).\n\n"
+        "  --model M.plm   model file (see parlight info)\n"
+        "  --input PATH    image, video or directory\n"
+        "  --camera SPEC   a live camera instead: v4l2:/dev/videoN[:WxH[@FPS][:FORMAT]],\n"
+        "                  FORMAT yuyv|nv12|rgb24|mjpeg (see parlight cameras, docs/CAMERAS.md)\n"
+        "                  or libcamera[:ID|N] (libcamera's first, N-th or named camera)\n"
+        "  --n-frames K    stop after K frames (default: all)\n"
+        "  --threads N     worker threads, 1..64 (default 1); results do not depend on N\n"
+        "  --at X,Y,Z      report the lighting seen from this point (metres, camera frame)\n"
+        "                  instead of from the camera\n"
+        "  --smooth ALPHA  temporal filter, weight of the newest frame in (0, 1]: lights keep\n"
+        "                  their identity across frames and fade in and out; 1 = off.\n"
+        "                  Default: 0.5 for --camera, off for --input (files are often unrelated)\n"
+        "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
+        "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
+        "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n"
+        "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
+        "                  frames that arrive while the network is busy are dropped and\n"
+        "                  counted in \"dropped\" (cameras always run this way)\n"
+        "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
+        "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
+        "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
+        "                  luminance over the lighting's); off: the network's intensity\n"
+        "                  (docs/LIGHTING.md, \"Intensity anchor\")\n"
+        "  --max-pixels N  images of up to N pixels (default 67108864 = 64 Mi; at most\n"
+        "                  268435456): larger files are refused before decoding\n\n"
+        "SIGINT or SIGTERM finishes the frame in flight, flushes the outputs and exits 0.\n");
 }
 
 static volatile sig_atomic_t stop_requested;
@@ -78,7 +81,7 @@ static int finite_lighting(const pl_lighting *L)
 {
     for (int i = 0; i < L->n_lights; i++) {
         const pl_light *l = &L->lights[i];
-        const float v[8] = {l->dir[0], l->dir[1], l->dir[2], l->distance_m,
+        const float v[8] = {l->dir[0],         l->dir[1], l->dir[2], l->distance_m,
                             l->solid_angle_sr, l->rgb[0], l->rgb[1], l->rgb[2]};
         for (int k = 0; k < 8; k++)
             if (!isfinite(v[k])) return 0;
@@ -102,9 +105,12 @@ static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const
     PUT("{\"frame\":%lld,\"t_ns\":%lld,\"source\":\"", (long long)frame, (long long)t_ns);
     for (const char *s = source; *s; s++) { /* JSON string escaping of the path */
         unsigned char ch = (unsigned char)*s;
-        if (ch == '"' || ch == '\\') PUT("\\%c", ch);
-        else if (ch < 0x20) PUT("\\u%04x", ch);
-        else PUT("%c", ch);
+        if (ch == '"' || ch == '\\')
+            PUT("\\%c", ch);
+        else if (ch < 0x20)
+            PUT("\\u%04x", ch);
+        else
+            PUT("%c", ch);
     }
     PUT("\",");
     w = pl_lighting_format_json(L, buf + n, cap - n);
@@ -113,9 +119,11 @@ static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const
     float dir[3], rgb[3], sh[27];
     pl_lighting_primary(L, dir, rgb);
     pl_sh9_from_lights(L, sh);
-    PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[", (double)dir[0],
-        (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1], (double)rgb[2]);
-    for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)sh[k]);
+    PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[",
+        (double)dir[0], (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1],
+        (double)rgb[2]);
+    for (int k = 0; k < 27; k++)
+        PUT("%s%.6g", k ? "," : "", (double)sh[k]);
     PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f", tm->preprocess_ms,
         tm->infer_ms, total_ms);
     if (latency_ms >= 0) PUT(",\"latency\":%.3f", latency_ms);
@@ -137,6 +145,7 @@ int cmd_estimate(int argc, char **argv)
                                          {"realtime", no_argument, 0, 'r'},
                                          {"fps-cap", required_argument, 0, 'f'},
                                          {"anchor", required_argument, 0, 'A'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
@@ -150,9 +159,15 @@ int cmd_estimate(int argc, char **argv)
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:h", opts, NULL)) != -1) {
         switch (c) {
-        case 'm': model_path = optarg; break;
-        case 'i': input = optarg; break;
-        case 'C': camera = optarg; break;
+        case 'm':
+            model_path = optarg;
+            break;
+        case 'i':
+            input = optarg;
+            break;
+        case 'C':
+            camera = optarg;
+            break;
         case 'n':
             if (cli_int("estimate", "--n-frames", optarg, 1, 1000000000, &n_frames) < 0) return 2;
             break;
@@ -169,7 +184,9 @@ int cmd_estimate(int argc, char **argv)
             alpha = (float)v;
             break;
         }
-        case 'r': realtime = 1; break;
+        case 'r':
+            realtime = 1;
+            break;
         case 'A':
             if (cli_anchor("estimate", optarg, anchor) < 0) return 2;
             have_anchor = 1;
@@ -178,8 +195,10 @@ int cmd_estimate(int argc, char **argv)
             char *end;
             fps_cap = strtod(optarg, &end);
             if (end == optarg || *end || !(fps_cap > 0.0 && fps_cap <= 1000.0)) {
-                fprintf(stderr, "parlight estimate: --fps-cap '%s': expected frames per second "
-                                "in (0, 1000]\n", optarg);
+                fprintf(stderr,
+                        "parlight estimate: --fps-cap '%s': expected frames per second "
+                        "in (0, 1000]\n",
+                        optarg);
                 return 2;
             }
             break;
@@ -191,7 +210,12 @@ int cmd_estimate(int argc, char **argv)
             }
             outs[n_outs++] = optarg;
             break;
-        case 'h': help(stdout); return 0;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("estimate", optarg) < 0) return 2;
+            break;
+        case 'h':
+            help(stdout);
+            return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
         }
@@ -283,8 +307,8 @@ int cmd_estimate(int argc, char **argv)
         double dt_s = done ? (double)(fr.t_ns - prev_t_ns) / 1e9 : 0.0;
         if (done && !(dt_s > 0.0 && dt_s <= 10.0)) dt_s = 1.0 / 30.0;
         prev_t_ns = fr.t_ns;
-        if (pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
-                             fr.image.stride, &L, &tm) < 0 ||
+        if (pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height, fr.image.stride,
+                             &L, &tm) < 0 ||
             pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {
             fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
@@ -303,8 +327,8 @@ int cmd_estimate(int argc, char **argv)
             snprintf(source, sizeof source, "%s", desc);
         /* cameras stamp frames with CLOCK_MONOTONIC, pl_now_ns's clock: capture to this line */
         const double latency_ms = camera ? (double)(pl_now_ns() - fr.t_ns) / 1e6 : -1.0;
-        if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms,
-                        latency_ms, dropped) < 0) {
+        if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms, latency_ms,
+                        dropped) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
@@ -322,8 +346,9 @@ int cmd_estimate(int argc, char **argv)
     if (cap) {
         char last[512];
         const int64_t bad = pl_capture_bad_frames(cap, last, sizeof last);
-        if (bad) fprintf(stderr, "parlight estimate: warning: %lld bad frame%s skipped, the last: %s\n",
-                         (long long)bad, bad == 1 ? "" : "s", last);
+        if (bad)
+            fprintf(stderr, "parlight estimate: warning: %lld bad frame%s skipped, the last: %s\n",
+                    (long long)bad, bad == 1 ? "" : "s", last);
         skipped += bad;
     }
     if (stop_requested) {
