@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "core/file.h"
+#include "core/image.h"
 #include "core/util.h"
 #include "light/light.h"
 
@@ -18,12 +19,19 @@ int cli_int(const char *cmd, const char *flag, const char *s, long lo, long hi, 
     errno = 0;
     long v = strtol(s, &end, 10);
     if (errno || end == s || *end || v < lo || v > hi) {
-        fprintf(stderr, "parlight %s: %s '%s': expected an integer in %ld..%ld\n", cmd, flag, s,
-                lo, hi);
+        fprintf(stderr, "parlight %s: %s '%s': expected an integer in %ld..%ld\n", cmd, flag, s, lo,
+                hi);
         return -1;
     }
     *out = (int)v;
     return 0;
+}
+
+int cli_max_pixels(const char *cmd, const char *s)
+{
+    int n;
+    if (cli_int(cmd, "--max-pixels", s, 1, PL_IMAGE_MAX_PIXELS, &n) < 0) return -1;
+    return pl_image_set_max_pixels(n, "--max-pixels") < 0 ? -1 : 0;
 }
 
 int cli_double(const char *cmd, const char *flag, const char *s, double lo, double hi, int lo_open,
@@ -78,8 +86,10 @@ int cli_anchor(const char *cmd, const char *s, double out[3])
     }
     if (n >= 2 && *p == '\0' && pl_anchor_check(out[0], out[1], out[2]) == 0) return 0;
 bad:
-    fprintf(stderr, "parlight %s: --anchor '%s': expected off, or W,B or W,B,GAMMA with W in "
-            "0..1, B in -8..8 (stops), GAMMA in 1..3\n", cmd, s);
+    fprintf(stderr,
+            "parlight %s: --anchor '%s': expected off, or W,B or W,B,GAMMA with W in "
+            "0..1, B in -8..8 (stops), GAMMA in 1..3\n",
+            cmd, s);
     return -1;
 }
 
@@ -91,8 +101,10 @@ int cli_getopt_error(const char *cmd, int c, char *const argv[])
     if (c == ':')
         fprintf(stderr, "parlight %s: %s needs a value\n", cmd, arg);
     else if (strncmp(arg, "--", 2) == 0 && strchr(arg, '='))
-        fprintf(stderr, "parlight %s: '%s': unknown option, or a value for one that takes none "
-                "(see --help)\n", cmd, arg);
+        fprintf(stderr,
+                "parlight %s: '%s': unknown option, or a value for one that takes none "
+                "(see --help)\n",
+                cmd, arg);
     else if (strncmp(arg, "--", 2) == 0)
         fprintf(stderr, "parlight %s: unknown option '%s' (see --help)\n", cmd, arg);
     else

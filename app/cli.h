@@ -20,6 +20,13 @@ int cli_anchor(const char *cmd, const char *s, double out[3]);
  * Prints "parlight <cmd>: --token-file PATH: <problem>" and returns -1 otherwise. */
 int cli_read_token(const char *cmd, const char *path, char *out, size_t cap);
 
+/* --max-pixels N, the same in every command that reads images or panoramas: the read limit
+ * (core/image.h: pl_image_set_max_pixels), 1..PL_IMAGE_MAX_PIXELS. The getopt_long value is
+ * CLI_OPT_MAX_PIXELS. Prints "parlight <cmd>: --max-pixels ..." and returns -1 when out of range.
+ */
+enum { CLI_OPT_MAX_PIXELS = 0x4d50 };
+int cli_max_pixels(const char *cmd, const char *s);
+
 /* For getopt_long's ':' (an option without its value; the optstring must start with ':') and
  * '?' (an unknown option, or a value given to one that takes none) results `c`: prints
  * "parlight <cmd>: ..." naming the option as the user wrote it and returns 2, the exit status

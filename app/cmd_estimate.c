@@ -29,7 +29,8 @@ static void help(FILE *f)
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
             "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n"
             "                         [--loop] [--wait-clients N] [--max-clients N]\n"
-            "                         [--unix-mode MODE] [--token-file F]\n\n"
+            "                         [--unix-mode MODE] [--token-file F] [--max-pixels N]\n"
+            "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
@@ -72,7 +73,9 @@ static void help(FILE *f)
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
-            "                  (docs/LIGHTING.md, \"Intensity anchor\")\n\n"
+            "                  (docs/LIGHTING.md, \"Intensity anchor\")\n"
+            "  --max-pixels N  images of up to N pixels (default 67108864 = 64 Mi; at most\n"
+            "                  268435456): larger files are refused before decoding\n\n"
             "SIGINT or SIGTERM finishes the frame in flight (if any), flushes the outputs,\n"
             "removes a unix: socket and exits 0, also when it comes during start-up.\n"
             "SIGHUP reloads the model from the same path between two frames; a file that does\n"
@@ -264,6 +267,7 @@ int cmd_estimate(int argc, char **argv)
                                          {"gravity", required_argument, 0, 'G'},
                                          {"poses", required_argument, 0, 'P'},
                                          {"wait-clients", required_argument, 0, 'W'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
@@ -368,6 +372,9 @@ int cmd_estimate(int argc, char **argv)
             if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
                         &wait_clients) < 0)
                 return 2;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("estimate", optarg) < 0) return 2;
             break;
         case 'h': help(stdout); return 0;
         default:

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "app/commands.h"
+#include "core/image.h"
 
 static const struct command {
     const char *name;
@@ -24,6 +25,8 @@ static void usage(FILE *f)
 
 int main(int argc, char **argv)
 {
+    /* Messages about images over the read limit name the flag that raises it. */
+    pl_image_set_max_pixels(PL_IMAGE_DEFAULT_MAX_PIXELS, "--max-pixels");
     if (argc < 2) {
         usage(stderr);
         return 2;
