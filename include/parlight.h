@@ -1,12 +1,25 @@
 /* parlight — indoor lighting estimation from one camera frame (Gardner et al., ICCV 2019).
  *
- * Public C API. Typical use:
+ * Public C API. Typical use (tests/test_api_example.c is this example, compiled and run by
+ * `make test`; tests/test_header_example.sh checks the two still agree):
  *
- *     pl_model *m;
- *     if (pl_model_load("models/parlight-n3.plm", &m) < 0) { puts(pl_last_error()); ... }
+ *     pl_model *m = NULL;
+ *     if (pl_model_load(path, &m) < 0) {
+ *         fprintf(stderr, "%s\n", pl_last_error());
+ *         return 1;
+ *     }
  *     pl_lighting L;
- *     if (pl_estimate_rgb8(m, rgb, width, height, width * 3, &L) < 0) { ... }
- *     ... L.lights[0].dir, L.ambient ...
+ *     pl_timing t;
+ *     if (pl_estimate_rgb8(m, rgb, width, height, (size_t)width * 3, &L, &t) < 0) {
+ *         fprintf(stderr, "%s\n", pl_last_error());
+ *         pl_model_free(m);
+ *         return 1;
+ *     }
+ *     for (int i = 0; i < L.n_lights; i++)
+ *         printf("light %d: dir %.3f %.3f %.3f, %.3f sr\n", i, L.lights[i].dir[0],
+ *                L.lights[i].dir[1], L.lights[i].dir[2], L.lights[i].solid_angle_sr);
+ *     printf("ambient %.3f %.3f %.3f (%.1f ms)\n", L.ambient[0], L.ambient[1], L.ambient[2],
+ *            t.preprocess_ms + t.infer_ms);
  *     pl_model_free(m);
  *
  * Errors: every function that can fail returns a negative pl_status and leaves a message naming
@@ -26,6 +39,15 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* Version of this library: PARLIGHT_VERSION (a string) for what a program was compiled
+ * against, pl_version() for what it runs with. The major number changes when the API or the ABI
+ * does (libparlight.so.MAJOR). */
+#define PARLIGHT_VERSION_MAJOR 0
+#define PARLIGHT_VERSION_MINOR 5
+#define PARLIGHT_VERSION_PATCH 0
+#define PARLIGHT_VERSION "0.5.0"
+const char *pl_version(void);
 
 typedef enum pl_status {
     PL_OK = 0,
