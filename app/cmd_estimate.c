@@ -198,53 +198,6 @@ static int finite_lighting(const pl_lighting *L)
     return isfinite(L->ambient[0]) && isfinite(L->ambient[1]) && isfinite(L->ambient[2]);
 }
 
-/* Writes one JSON line for a frame; returns 0, or -1 when the line does not fit (a bug). */
-static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const char *source,
-                       const double *orientation, const pl_lighting *L, const pl_timing *tm,
-                       double total_ms, double latency_ms, int64_t dropped)
-{
-    size_t n = 0;
-    int w;
-#define PUT(...)                                                                                   \
-    do {                                                                                           \
-        w = snprintf(buf + n, cap - n, __VA_ARGS__);                                               \
-        if (w < 0 || (size_t)w >= cap - n) return -1;                                              \
-        n += (size_t)w;                                                                            \
-    } while (0)
-    PUT("{\"frame\":%lld,\"t_ns\":%lld,\"source\":\"", (long long)frame, (long long)t_ns);
-    for (const char *s = source; *s; s++) { /* JSON string escaping of the path */
-        unsigned char ch = (unsigned char)*s;
-        if (ch == '"' || ch == '\\') PUT("\\%c", ch);
-        else if (ch < 0x20) PUT("\\u%04x", ch);
-        else PUT("%c", ch);
-    }
-    if (orientation)
-        PUT("\",\"space\":\"world\",\"orientation\":[%.6g,%.6g,%.6g,%.6g],", orientation[0],
-            orientation[1], orientation[2], orientation[3]);
-    else
-        PUT("\",\"space\":\"camera\",");
-    w = pl_lighting_format_json(L, buf + n, cap - n);
-    if (w < 0) return -1;
-    n += (size_t)w;
-    float dir[3], rgb[3], sh[27];
-    pl_lighting_primary(L, dir, rgb);
-    pl_sh9_from_lights(L, sh);
-    PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[", (double)dir[0],
-        (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1], (double)rgb[2]);
-    for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)sh[k]);
-    pl_engine_lighting E;
-    pl_lighting_engine(L, &E);
-    PUT("],\"engine\":{\"dir\":[%.6g,%.6g,%.6g],\"intensity\":[%.6g,%.6g,%.6g],\"sh9\":[",
-        (double)E.dir[0], (double)E.dir[1], (double)E.dir[2], (double)E.intensity[0],
-        (double)E.intensity[1], (double)E.intensity[2]);
-    for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)E.sh9[k]);
-    PUT("]},\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f", tm->preprocess_ms,
-        tm->infer_ms, total_ms);
-    if (latency_ms >= 0) PUT(",\"latency\":%.3f", latency_ms);
-    PUT("},\"dropped\":%lld}\n", (long long)dropped);
-#undef PUT
-    return 0;
-}
 
 int cmd_estimate(int argc, char **argv)
 {
@@ -573,8 +526,9 @@ int cmd_estimate(int argc, char **argv)
         /* cameras stamp frames with CLOCK_MONOTONIC, pl_now_ns's clock: capture to this line */
         const double latency_ms = camera ? (double)(pl_now_ns() - fr.t_ns) / 1e6 : -1.0;
         if (fr.index + 1 > pass_frames) pass_frames = fr.index + 1;
-        if (format_line(line, sizeof line, frame_base + fr.index, fr.t_ns, source, orient, &L, &tm,
-                        total_ms, latency_ms, dropped) < 0) {
+        const pl_frame_meta meta = {frame_base + fr.index, fr.t_ns, source, orient,
+                                    tm, total_ms, latency_ms, dropped};
+        if (pl_frame_format_json(&meta, &L, line, sizeof line) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }

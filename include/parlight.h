@@ -138,6 +138,29 @@ typedef struct pl_timing {
 int pl_estimate_rgb8(pl_model *model, const uint8_t *rgb, int width, int height, size_t stride,
                      pl_lighting *out, pl_timing *timing);
 
+/* ---- the JSON line ------------------------------------------------------------------------ */
+
+/* What the line says about a frame besides its lighting (docs/OUTPUT.md). */
+typedef struct pl_frame_meta {
+    int64_t frame;                 /* "frame" */
+    int64_t t_ns;                  /* "t_ns" */
+    const char *source;            /* "source" (escaped here; NULL = "") */
+    const double *orientation;     /* camera-to-world (w, x, y, z) the lighting was turned by:
+                                      "space":"world"; NULL: "space":"camera" */
+    pl_timing timing;              /* "timing_ms" preprocess and infer */
+    double total_ms;               /* "timing_ms" total */
+    double latency_ms;             /* "timing_ms" latency; < 0: left out */
+    int64_t dropped;               /* "dropped" */
+} pl_frame_meta;
+
+/* Writes the one-line JSON object `parlight estimate` prints for a frame, '\n' included, into
+ * buf (cap bytes; 16384 suffice for 16 lights and a source of up to 4096 plain characters),
+ * NUL-terminated.
+ * Returns its length, or PL_E_ARG when it does not fit or an argument is NULL. Apps that emit
+ * this stream themselves produce the same bytes as the CLI. */
+int pl_frame_format_json(const pl_frame_meta *meta, const pl_lighting *lighting, char *buf,
+                         size_t cap);
+
 /* The latent z of the last estimate (3072 floats for the default model: 1024 channels x 3
  * bands, channel-major), for tests and tools. */
 int pl_model_last_latent(const pl_model *model, const float **z, int *n);
