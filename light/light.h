@@ -44,48 +44,8 @@ int pl_envmap_downsample(const pl_image_f32 *env, int width, pl_image_f32 *out);
  * radiance at its centre direction. width even, 2..PL_IMAGE_MAX_SIDE. *out is allocated. */
 int pl_envmap_from_lights(const pl_lighting *L, int width, pl_image_f32 *out);
 
-/* The lights as seen from point p (metres, camera frame): direction d*l - p, distance |d*l - p|,
- * solid angle scaled by (d/|d*l - p|)^2; rgb (peak radiance) and ambient unchanged. PL_E_ARG if p
- * is within 1 mm of a light or not finite. p = 0 returns L unchanged. out may be L. */
-int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_lighting *out);
-
-/* Main light for AR: the light with the largest energy, luminance(rgb) * pl_sg_integral(s) with
- * luminance = 0.2126 r + 0.7152 g + 0.0722 b (the first one on ties). dir = its direction, rgb =
- * its peak radiance c_i. Returns the index of that light (>= 0); with no lights dir = (0, 1, 0),
- * rgb = (0, 0, 0) and it returns 0 as well (PL_E_ARG only for NULL outputs). */
-int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
-
-/* 27 L2 SH coefficients, WebXR order (9 coefficients x RGB interleaved: L00.r, L00.g, L00.b,
- * L1-1.r, ...), in the order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real orthonormal
- * basis. They project RADIANCE (not irradiance): sh[k] = integral L(u) Y_k(u) du. Basis
- * constants and the irradiance conversion are in docs/LIGHTING.md. SG lobes are projected in
- * closed form (zonal), so this is exact up to float rounding. */
-void pl_sh9_from_lights(const pl_lighting *L, float sh[27]);
-/* Lighting an engine applies as it is, without double counting (docs/LIGHTING.md, "Engine-ready
- * lighting"): a directional light for the primary light and an SH probe of everything else, so
- * that DirectionalLight(dir, intensity) + LightProbe(sh9) gives the diffuse irradiance of the
- * whole lighting (three.js, WebXR, ARCore and Unity all add the two).
- *   dir        toward the primary light (pl_lighting_primary's light, unit); (0, 1, 0) with none
- *   intensity  RGB irradiance the directional light delivers at normal incidence (three.js:
- *              its colour x intensity): the share of the primary lobe a directional light can
- *              carry, chosen to minimise the error left in SH bands >= 4. About the lobe's energy
- *              c * pl_sg_integral(s) for a lamp; for wide lobes less, the rest stays in sh9
- *   sh9        27 radiance SH coefficients (pl_sh9_from_lights' order and basis) of the
- *              lighting minus a delta light of that intensity in dir
- * Measured against brute-force irradiance (tests/test_engine.c, error / peak irradiance): 0.3% for
- * a 0.002 sr lamp, <= 2.1% for one lobe of 0.01..1 sr, 0.4% at 2.9 sr; sh9 alone 0.9..7%, sh9 +
- * a directional light of the primary 9..97%. */
-typedef struct pl_engine_lighting {
-    float dir[3];
-    float intensity[3];
-    float sh9[27];
-} pl_engine_lighting;
-void pl_lighting_engine(const pl_lighting *L, pl_engine_lighting *out);
-
 /* The same projection of an equirectangular map (sum over pixels of L * Y * pixel solid angle). */
 int pl_sh9_from_envmap(const pl_image_f32 *env, float sh[27]);
-/* Evaluates the radiance of 27 SH coefficients in unit direction u. */
-void pl_sh9_eval(const float sh[27], const float u[3], float rgb[3]);
 
 /* HDR cube map, 6 faces in order +X, -X, +Y, -Y, +Z, -Z (OpenGL cube-map conventions, as WebXR's
  * XRLightProbe / WebGL TEXTURE_CUBE_MAP use), each face x face RGB floats, rows top to bottom,

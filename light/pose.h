@@ -8,12 +8,7 @@
 
 #include "parlight.h"
 
-/* How far |q| may be from 1 before a quaternion is refused rather than normalised. */
-#define PL_QUAT_UNIT_TOL 1e-3
 
-/* Row-major 3x3 rotation of unit quaternion q (w, x, y, z). PL_E_ARG, naming the problem, when
- * a component is not finite or | |q| - 1 | > PL_QUAT_UNIT_TOL; otherwise q is normalised first. */
-int pl_quat_to_rotation(const double q[4], double R[9]);
 
 /* The rotation turning gravity g (measured in the camera frame, pointing down, any length > 0)
  * onto world -y by the smallest angle: a gravity-aligned frame whose yaw follows the camera.
@@ -28,8 +23,5 @@ void pl_rotate3(const double R[9], const float v[3], float out[3]);
 /* v' = R^T v (world back to camera). */
 void pl_rotate3_inverse(const double R[9], const float v[3], float out[3]);
 
-/* Every light direction turned by R (distances, sizes, colours and the ambient unchanged);
- * out may be L. */
-void pl_lighting_rotate(const pl_lighting *L, const double R[9], pl_lighting *out);
 
 #endif
