@@ -102,6 +102,11 @@ int cli_getopt_error(const char *cmd, int c, char *const argv[])
 
 int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
 {
+    return cli_read_secret(cmd, "--token-file", path, out, cap);
+}
+
+int cli_read_secret(const char *cmd, const char *flag, const char *path, char *out, size_t cap)
+{
     /* non-blocking open: a FIFO given by mistake is refused below instead of hanging here */
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     struct stat st;
@@ -136,7 +141,7 @@ int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
         if (!why) memcpy(out, buf, len + 1);
     }
     if (why) {
-        fprintf(stderr, "parlight %s: --token-file %s: %s\n", cmd, path, why);
+        fprintf(stderr, "parlight %s: %s %s: %s\n", cmd, flag, path, why);
         return -1;
     }
     return 0;

@@ -17,6 +17,8 @@ int cli_anchor(const char *cmd, const char *s, double out[3]);
  * bytes, no control characters. The file must be a regular file that not every user can read.
  * Prints "parlight <cmd>: --token-file PATH: <problem>" and returns -1 otherwise. */
 int cli_read_token(const char *cmd, const char *path, char *out, size_t cap);
+/* The same for another flag (--mqtt-password-file): the messages name `flag`. */
+int cli_read_secret(const char *cmd, const char *flag, const char *path, char *out, size_t cap);
 
 /* For getopt_long's ':' (an option without its value; the optstring must start with ':') and
  * '?' (an unknown option, or a value given to one that takes none) results `c`: prints
