@@ -54,6 +54,7 @@ typedef struct sink_ws {
     ws_client *head;
     int conns;              /* adopted connections not yet destroyed, any state */
     unsigned char *scratch; /* LWS_PRE + PL_SINK_QUEUE_BYTES: one message with lws's headroom */
+    int closing;            /* pl_sink_close: each client gets its queue, then a close frame */
 } sink_ws;
 
 static void client_unlink(sink_ws *w, ws_client *c)
@@ -139,8 +140,8 @@ static int client_writable(pl_sink *s, sink_ws *w, ws_client *c, struct lws *wsi
         c->state = WS_GONE;
         return -1;
     }
-    if (c->state != WS_ADMITTED) return 0;
-    while (c->len > 0 && !lws_send_pipe_choked(wsi)) {
+    if (c->state != WS_ADMITTED && c->state != WS_PENDING) return 0;
+    while (c->state == WS_ADMITTED && c->len > 0 && !lws_send_pipe_choked(wsi)) {
         const char *line = c->buf + c->off;
         const char *nl = memchr(line, '\n', c->len);
         size_t n = (size_t)(nl - line); /* the queue holds whole lines only */
@@ -157,11 +158,17 @@ static int client_writable(pl_sink *s, sink_ws *w, ws_client *c, struct lws *wsi
         c->off += n + 1;
         c->len -= n + 1;
     }
-    if (c->len == 0)
-        c->off = 0;
-    else
+    if (c->len > 0 || lws_partial_buffered(wsi)) {
         lws_callback_on_writable(wsi);
-    return 0;
+        return 0;
+    }
+    c->off = 0;
+    if (!w->closing) return 0;
+    /* the end of the stream: a close frame, so that a browser sees a clean close (1001) */
+    static const char bye[] = "parlight stopped";
+    lws_close_reason(wsi, LWS_CLOSE_STATUS_GOINGAWAY, (unsigned char *)bye, sizeof bye - 1);
+    client_release(s, c);
+    return -1;
 }
 
 static int ws_callback(struct lws *wsi, enum lws_callback_reasons reason, void *user, void *in,
@@ -390,14 +397,19 @@ void sink_ws_close(pl_sink *s)
 {
     sink_ws *w = s->impl;
     if (w && w->ctx) {
+        /* what is queued, then a close frame, each client's close reply: at most
+         * PL_SINK_CLOSE_MS; clients still in their HTTP handshake are not waited for */
         const int64_t deadline = pl_now_ns() + (int64_t)PL_SINK_CLOSE_MS * 1000000;
+        w->closing = 1;
+        for (ws_client *c = w->head; c; c = c->next)
+            if (c->state == WS_ADMITTED || c->state == WS_PENDING) lws_callback_on_writable(c->wsi);
         for (;;) {
-            int queued = 0;
+            int open = 0;
             for (ws_client *c = w->head; c; c = c->next)
-                queued |= c->state == WS_ADMITTED && c->len > 0;
-            if (!queued || pl_now_ns() >= deadline) break;
+                open |= c->state != WS_HANDSHAKE;
+            if (!open || pl_now_ns() >= deadline) break;
             (void)lws_service(w->ctx, -1);
-            struct timespec ts = {0, 2000000};
+            struct timespec ts = {0, 1000000};
             nanosleep(&ts, NULL);
         }
         lws_context_destroy(w->ctx); /* closes every connection; WSI_DESTROY frees each client */
