@@ -128,8 +128,8 @@ typedef struct pl_sink_options {
     int token_ms;
     /* mqtt: strings are copied at open; NULL or "" = not set.
      *   mqtt_qos        0 (default) or 1
-     *   mqtt_client_id  1..23 of [0-9A-Za-z_-] (MQTT 3.1.1's portable set); default
-     *                   "parlight-<pid>"
+     *   mqtt_client_id  1..64 of [0-9A-Za-z_.-]; default "parlight-<pid>" (two clients with
+     *                   one id take turns: the broker drops the older connection)
      *   mqtt_username   with mqtt_password (may be NULL): the broker's password login
      *   mqtt_ca_file    turns on TLS: the CA certificate(s) the broker's certificate must chain
      *                   to, and whose host name it must carry (mosquitto_tls_set)

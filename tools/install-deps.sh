@@ -38,7 +38,9 @@ case "$DEB_ARCH" in
             gcc-aarch64-linux-gnu g++-aarch64-linux-gnu libc6-dev-arm64-cross  # cross toolchain
             qemu-user                                     # runs the board's tests (qemu-aarch64)
             libjpeg62-turbo-dev:arm64 libpng-dev:arm64 zlib1g-dev:arm64  # the target's codecs
-            libwebsockets-dev:arm64 libmosquitto-dev:arm64  # the target's ws:// and mqtt:// sinks
+            libmosquitto-dev:arm64 # the target's mqtt:// sink. Not libwebsockets-dev:arm64: Debian 12's
+                                   # cannot sit beside the host's (their /usr/include/lws_config.h
+                                   # differ), so board builds have no ws:// (docs/PORTING.md)
         ) ;;
     *) echo "install-deps: boards/$BOARD.mk: no cross packages known for '$DEB_ARCH'" >&2; exit 1 ;;
 esac
