@@ -16,7 +16,7 @@
 #include "core/util.h"
 #include "port/sink_internal.h"
 
-#if PL_HAVE_MOSQUITTO
+#ifdef PL_HAVE_MOSQUITTO
 #include <mosquitto.h>
 
 #define CLIENT_ID_MAX 64

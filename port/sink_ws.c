@@ -16,7 +16,7 @@
 #include "core/util.h"
 #include "port/sink_internal.h"
 
-#if PL_HAVE_LWS
+#ifdef PL_HAVE_LWS
 #include <libwebsockets.h>
 
 #define ACCEPTS_PER_CALL 64

@@ -4,7 +4,8 @@
  * round trip, stale and live socket files, several sinks at once, the client limit, a bounded
  * close, every malformed spec (ws and mqtt too), an mqtt sink without a broker (writes return at
  * once, lines dropped and counted) and one ws frame read raw (a text frame without the newline);
- * in a build without libwebsockets/libmosquitto, that opening those says so. Every wait has a timeout and alarm() guards the whole run. */
+ * in a build without libwebsockets/libmosquitto, that opening those says so. Every wait has a
+ * timeout and alarm() guards the whole run. */
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -922,7 +923,7 @@ static void test_mqtt_no_broker(void)
     char spec[64];
     snprintf(spec, sizeof spec, "mqtt://127.0.0.1:%d/parlight/test", closed_port());
     pl_sink *s = NULL;
-#if PL_HAVE_MOSQUITTO
+#ifdef PL_HAVE_MOSQUITTO
     pl_sink_options o = {0};
     o.mqtt_qos = 2;
     CHECK(pl_sink_open_opts(spec, &o, &s) == PL_E_ARG && strstr(pl_last_error(), "QoS 2"),
@@ -969,7 +970,7 @@ static void test_mqtt_no_broker(void)
 static void test_ws_frame(void)
 {
     pl_sink *s = NULL;
-#if PL_HAVE_LWS
+#ifdef PL_HAVE_LWS
     int rc = pl_sink_open("ws://127.0.0.1:0/lights", &s);
     CHECK(rc == 0, "open ws: %s", pl_last_error());
     if (rc < 0) return;
