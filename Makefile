@@ -33,6 +33,8 @@ endif
 #   OpenCV:          other image formats, videos, test fixtures (port/image_io.cpp, video_cv.cpp)
 #   OpenEXR:         .exr panoramas and maps (port/exr_io.cpp)
 #   libcamera:       the libcamera source (port/source_libcamera.cpp)
+#   libwebsockets:   the ws:// sink (port/sink_ws.c), feature word "ws"
+#   libmosquitto:    the mqtt:// sink (port/sink_mqtt.c), feature word "mqtt"
 ifneq ($(BOARD_PKG_CONFIG_LIBDIR),)
 PKG_CONFIG ?= PKG_CONFIG_LIBDIR=$(BOARD_PKG_CONFIG_LIBDIR) pkg-config
 else
@@ -43,6 +45,8 @@ WITH_LIBPNG    ?= 1
 WITH_OPENCV    ?= 1
 WITH_OPENEXR   ?= 1
 WITH_LIBCAMERA ?= 1
+WITH_LWS       ?= 1
+WITH_MOSQUITTO ?= 1
 # $(call pc_have,WITH_X,module): 1 when wanted and pkg-config finds it for the target
 pc_have = $(if $(filter 1,$($(1))),$(shell $(PKG_CONFIG) --exists $(2) 2>/dev/null && echo 1))
 HAVE_LIBJPEG   := $(call pc_have,WITH_LIBJPEG,libjpeg)
@@ -50,12 +54,16 @@ HAVE_LIBPNG    := $(call pc_have,WITH_LIBPNG,libpng)
 HAVE_OPENCV    := $(call pc_have,WITH_OPENCV,opencv4)
 HAVE_OPENEXR   := $(call pc_have,WITH_OPENEXR,OpenEXR)
 HAVE_LIBCAMERA := $(call pc_have,WITH_LIBCAMERA,libcamera)
+HAVE_LWS       := $(call pc_have,WITH_LWS,libwebsockets)
+HAVE_MOSQUITTO := $(call pc_have,WITH_MOSQUITTO,libmosquitto)
 FEATURE_FLAGS  := $(if $(HAVE_LIBJPEG),-DPL_HAVE_LIBJPEG=1) $(if $(HAVE_LIBPNG),-DPL_HAVE_LIBPNG=1) \
                   $(if $(HAVE_OPENCV),-DPL_HAVE_OPENCV=1) $(if $(HAVE_OPENEXR),-DPL_HAVE_OPENEXR=1) \
-                  $(if $(HAVE_LIBCAMERA),-DPL_HAVE_LIBCAMERA=1)
+                  $(if $(HAVE_LIBCAMERA),-DPL_HAVE_LIBCAMERA=1) \
+                  $(if $(HAVE_LWS),-DPL_HAVE_LWS=1) $(if $(HAVE_MOSQUITTO),-DPL_HAVE_MOSQUITTO=1)
 FEATURES       := $(strip $(if $(HAVE_LIBJPEG),libjpeg) $(if $(HAVE_LIBPNG),libpng) \
                   $(if $(HAVE_OPENCV),opencv) $(if $(HAVE_OPENEXR),openexr) \
-                  $(if $(HAVE_LIBCAMERA),libcamera))
+                  $(if $(HAVE_LIBCAMERA),libcamera) $(if $(HAVE_LWS),ws) \
+                  $(if $(HAVE_MOSQUITTO),mqtt))
 pc_cflags = $(if $(2),$(shell $(PKG_CONFIG) --cflags $(1) 2>/dev/null))
 pc_libs   = $(if $(2),$(shell $(PKG_CONFIG) --libs $(1) 2>/dev/null))
 OPENCV_CFLAGS := $(call pc_cflags,opencv4,$(HAVE_OPENCV))
@@ -66,6 +74,8 @@ LIBCAMERA_CFLAGS := $(call pc_cflags,libcamera,$(HAVE_LIBCAMERA))
 LIBCAMERA_LIBS   := $(call pc_libs,libcamera,$(HAVE_LIBCAMERA))
 CODEC_CFLAGS  := $(call pc_cflags,libjpeg,$(HAVE_LIBJPEG)) $(call pc_cflags,libpng,$(HAVE_LIBPNG))
 CODEC_LIBS    := $(call pc_libs,libpng,$(HAVE_LIBPNG)) $(call pc_libs,libjpeg,$(HAVE_LIBJPEG))
+NET_CFLAGS    := $(call pc_cflags,libwebsockets,$(HAVE_LWS)) $(call pc_cflags,libmosquitto,$(HAVE_MOSQUITTO))
+NET_LIBS      := $(call pc_libs,libwebsockets,$(HAVE_LWS)) $(call pc_libs,libmosquitto,$(HAVE_MOSQUITTO))
 
 # ---- plugins (port/plugin.h) ------------------------------------------------------------------
 # PLUGINS=1 (default): OpenCV's and libcamera's sides are built as $(BUILD)/parlight-opencv.so
@@ -82,7 +92,7 @@ FEATURE_FLAGS += $(if $(PLUGIN_OPENCV_SRC),-DPL_OPENCV_PLUGIN=1) \
 PLUGIN_SO := $(if $(PLUGIN_OPENCV_SRC),$(BUILD)/parlight-opencv.so) \
              $(if $(PLUGIN_LIBCAMERA_SRC),$(BUILD)/parlight-libcamera.so)
 CORE_LIBS := $(if $(PLUGIN_OPENCV_SRC),,$(OPENCV_LIBS)) $(EXR_LIBS) \
-             $(if $(PLUGIN_LIBCAMERA_SRC),,$(LIBCAMERA_LIBS)) $(CODEC_LIBS) \
+             $(if $(PLUGIN_LIBCAMERA_SRC),,$(LIBCAMERA_LIBS)) $(CODEC_LIBS) $(NET_LIBS) \
              $(if $(PLUGIN_SO),-rdynamic -ldl)
 
 WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wmissing-prototypes \
@@ -165,6 +175,7 @@ $(BUILD)/obj/tests/%.o: CFLAGS += $(BOARD_TEST_CFLAGS)
 
 # Codec files see their libraries' headers (libpng16's live in a subfolder).
 $(BUILD)/obj/port/png_codec.o $(BUILD)/obj/port/jpeg_codec.o: CFLAGS += $(CODEC_CFLAGS)
+$(BUILD)/obj/port/sink_ws.o $(BUILD)/obj/port/sink_mqtt.o: CFLAGS += $(NET_CFLAGS)
 
 $(BUILD)/obj/%.o: %.c $(BUILD)/features
 	@mkdir -p $(dir $@)

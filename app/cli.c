@@ -115,13 +115,19 @@ int cli_getopt_error(const char *cmd, int c, char *const argv[])
 
 int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
 {
+    return cli_read_secret(cmd, "--token-file", path, out, cap);
+}
+
+int cli_read_secret(const char *cmd, const char *flag, const char *path, char *out, size_t cap)
+{
     int fd = -1;
     struct stat st;
     const char *why = NULL;
     char buf[1024];
     ssize_t n = 0;
-    if (pl_file_open_regular(path, "token file", &fd, NULL) < 0) {
-        fprintf(stderr, "parlight %s: --token-file %s\n", cmd, pl_last_error());
+    if (pl_file_open_regular(path, strcmp(flag, "--token-file") ? "password file" : "token file",
+                             &fd, NULL) < 0) {
+        fprintf(stderr, "parlight %s: %s %s\n", cmd, flag, pl_last_error());
         return -1;
     }
     if (fstat(fd, &st) != 0)
@@ -146,7 +152,7 @@ int cli_read_token(const char *cmd, const char *path, char *out, size_t cap)
         if (!why) memcpy(out, buf, len + 1);
     }
     if (why) {
-        fprintf(stderr, "parlight %s: --token-file %s: %s\n", cmd, path, why);
+        fprintf(stderr, "parlight %s: %s %s: %s\n", cmd, flag, path, why);
         return -1;
     }
     return 0;

@@ -19,6 +19,8 @@ int cli_anchor(const char *cmd, const char *s, double out[3]);
  * bytes, no control characters. The file must be a regular file that not every user can read.
  * Prints "parlight <cmd>: --token-file PATH: <problem>" and returns -1 otherwise. */
 int cli_read_token(const char *cmd, const char *path, char *out, size_t cap);
+/* The same for another flag (--mqtt-password-file): the messages name `flag`. */
+int cli_read_secret(const char *cmd, const char *flag, const char *path, char *out, size_t cap);
 
 /* --max-pixels N, the same in every command that reads images or panoramas: the read limit
  * (core/image.h: pl_image_set_max_pixels), 1..PL_IMAGE_MAX_PIXELS. The getopt_long value is

@@ -30,7 +30,9 @@ static void help(FILE *f)
             "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n"
             "                         [--loop] [--wait-clients N] [--max-clients N]\n"
             "                         [--unix-mode MODE] [--token-file F] [--max-pixels N]\n"
-            "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n\n"
+            "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n"
+            "                         [--mqtt-qos 0|1] [--mqtt-id ID] [--mqtt-user U]\n"
+            "                         [--mqtt-password-file F] [--mqtt-ca F [--mqtt-cert F --mqtt-key F]]\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
@@ -49,13 +51,24 @@ static void help(FILE *f)
             "                  Default: 0.5 for --camera, off for --input (files are often unrelated)\n"
             "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
             "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
-            "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n"
-            "  --max-clients N readers at once per tcp/unix server, 1..1024 (default 16); one\n"
-            "                  more is told why and closed\n"
+            "                  is given), unix:PATH, ws://[HOST]:PORT[/PATH] (a WebSocket server\n"
+            "                  for browsers: one text message per frame), mqtt://HOST:PORT/TOPIC\n"
+            "                  (publishes each frame, retained, to TOPIC on a broker)\n"
+            "                  (docs/OUTPUT.md, \"Streaming\")\n"
+            "  --max-clients N readers at once per tcp/unix/ws server, 1..1024 (default 16);\n"
+            "                  one more is told why and closed\n"
             "  --unix-mode MODE permission bits of unix: sockets, octal (default 600: owner only;\n"
             "                  660 adds the file's group)\n"
             "  --token-file F  tcp/unix readers must first send the token in F (its first line)\n"
-            "                  and a newline; F must not be readable by every user\n"
+            "                  and a newline, ws readers as their first message; F must not be\n"
+            "                  readable by every user\n"
+            "  --mqtt-qos Q    0 (default: at most once) or 1 (at least once, acknowledged)\n"
+            "  --mqtt-id ID    MQTT client id (default parlight-PID)\n"
+            "  --mqtt-user U   log in to the broker as U\n"
+            "  --mqtt-password-file F  with --mqtt-user: the password, F's first line (F must\n"
+            "                  not be readable by every user; a password never goes in argv)\n"
+            "  --mqtt-ca F     TLS to the broker, whose certificate must chain to the CA(s) in F\n"
+            "                  and name HOST; --mqtt-cert F --mqtt-key F: a client certificate\n"
             "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
             "                  frames that arrive while the network is busy are dropped and\n"
             "                  counted in \"dropped\" (cameras always run this way)\n"
@@ -69,7 +82,7 @@ static void help(FILE *f)
             "  --loop          --input only: start again at the end (frame numbers go on), until\n"
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
-            "                  tcp/unix servers (a replay is not over before a viewer connects)\n"
+            "                  tcp/unix/ws servers (a replay is not over before a viewer connects)\n"
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
@@ -221,6 +234,13 @@ int cmd_estimate(int argc, char **argv)
                                          {"poses", required_argument, 0, 'P'},
                                          {"wait-clients", required_argument, 0, 'W'},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
+                                         {"mqtt-qos", required_argument, 0, 1001},
+                                         {"mqtt-id", required_argument, 0, 1002},
+                                         {"mqtt-user", required_argument, 0, 1003},
+                                         {"mqtt-password-file", required_argument, 0, 1004},
+                                         {"mqtt-ca", required_argument, 0, 1005},
+                                         {"mqtt-cert", required_argument, 0, 1006},
+                                         {"mqtt-key", required_argument, 0, 1007},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
@@ -235,9 +255,9 @@ int cmd_estimate(int argc, char **argv)
     double anchor[3];
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
-    pl_sink_options sink_opts = {0, 0, NULL, 0};
-    const char *token_file = NULL;
-    char token[PL_SINK_TOKEN_MAX + 1];
+    pl_sink_options sink_opts = {0};
+    const char *token_file = NULL, *password_file = NULL;
+    char token[PL_SINK_TOKEN_MAX + 1], password[PL_SINK_TOKEN_MAX + 1];
     install_signals(); /* first: a service may be stopped while it loads (issue 25) */
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:LW:O:G:P:h", opts, NULL)) != -1) {
@@ -329,6 +349,27 @@ int cmd_estimate(int argc, char **argv)
         case CLI_OPT_MAX_PIXELS:
             if (cli_max_pixels("estimate", optarg) < 0) return 2;
             break;
+        case 1001:
+            if (cli_int("estimate", "--mqtt-qos", optarg, 0, 1, &sink_opts.mqtt_qos) < 0) return 2;
+            break;
+        case 1002:
+            sink_opts.mqtt_client_id = optarg;
+            break;
+        case 1003:
+            sink_opts.mqtt_username = optarg;
+            break;
+        case 1004:
+            password_file = optarg;
+            break;
+        case 1005:
+            sink_opts.mqtt_ca_file = optarg;
+            break;
+        case 1006:
+            sink_opts.mqtt_cert_file = optarg;
+            break;
+        case 1007:
+            sink_opts.mqtt_key_file = optarg;
+            break;
         case 'h': help(stdout); return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
@@ -362,10 +403,15 @@ int cmd_estimate(int argc, char **argv)
     }
     int n_servers = 0;
     for (int i = 0; i < n_outs; i++)
-        n_servers += !strncmp(outs[i], "tcp:", 4) || !strncmp(outs[i], "unix:", 5);
+        n_servers += !strncmp(outs[i], "tcp:", 4) || !strncmp(outs[i], "unix:", 5) ||
+                     !strncmp(outs[i], "ws:", 3);
     if (wait_clients && !n_servers) {
         fprintf(stderr, "parlight estimate: --wait-clients needs a server to connect to: --out "
-                        "tcp://HOST:PORT or unix:PATH\n");
+                        "tcp://HOST:PORT, ws://HOST:PORT or unix:PATH\n");
+        return 2;
+    }
+    if (password_file && !sink_opts.mqtt_username) {
+        fprintf(stderr, "parlight estimate: --mqtt-password-file needs --mqtt-user\n");
         return 2;
     }
 
@@ -389,6 +435,12 @@ int cmd_estimate(int argc, char **argv)
         if (cli_read_token("estimate", token_file, token, sizeof token) < 0) return 2;
         sink_opts.token = token;
     }
+    if (password_file) {
+        if (cli_read_secret("estimate", "--mqtt-password-file", password_file, password,
+                            sizeof password) < 0)
+            return 2;
+        sink_opts.mqtt_password = password;
+    }
     /* a stop request is honoured between the steps of start-up as between frames: each step
      * may take a while (model load, camera open) and every exit goes through `out` */
     if (stop_requested) goto stopped;
@@ -404,7 +456,8 @@ int cmd_estimate(int argc, char **argv)
     }
     for (int i = 0; i < pl_sinks_count(sinks); i++) { /* where readers connect (port 0 too) */
         const pl_sink *k = pl_sinks_get(sinks, i);
-        if (!strncmp(pl_sink_spec(k), "tcp:", 4) || !strncmp(pl_sink_spec(k), "unix:", 5))
+        if (!strncmp(pl_sink_spec(k), "tcp:", 4) || !strncmp(pl_sink_spec(k), "unix:", 5) ||
+            !strncmp(pl_sink_spec(k), "ws:", 3))
             fprintf(stderr, "parlight estimate: %s: listening on %s%s\n", pl_sink_spec(k),
                     pl_sink_address(k), sink_opts.token ? " (readers send the token first)" : "");
     }

@@ -1,5 +1,6 @@
 /* Output sinks: spec parsing, stdout, UDP, several sinks (port/sink.h). The TCP and Unix
- * stream servers are in port/sink_server.c, the event queue both use in port/sink_event.c. */
+ * stream servers are in port/sink_server.c, the WebSocket server in port/sink_ws.c, the MQTT
+ * publisher in port/sink_mqtt.c, the event queue they use in port/sink_event.c. */
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netdb.h>
@@ -17,7 +18,9 @@
 #include "core/util.h"
 #include "port/sink_internal.h"
 
-#define SPEC_HELP "expected stdout, -, udp://HOST:PORT, tcp://HOST:PORT or unix:PATH"
+#define SPEC_HELP                                                                                  \
+    "expected stdout, -, udp://HOST:PORT, tcp://HOST:PORT, unix:PATH, ws://HOST:PORT[/PATH] or "   \
+    "mqtt://HOST:PORT/TOPIC"
 
 /* ---- spec parsing --------------------------------------------------------------------------- */
 
@@ -96,6 +99,25 @@ static int parse_host_port(const char *spec, const char *rest, int min_port, sin
     return 0;
 }
 
+/* HOST:PORT/RESOURCE (ws, mqtt): the part before the first '/' as parse_host_port, the rest
+ * (with its '/') into sp->resource, or "" when there is none. */
+static int parse_host_port_resource(const char *spec, const char *rest, int min_port, sink_spec *sp)
+{
+    const char *slash = strchr(rest, '/');
+    size_t n = slash ? (size_t)(slash - rest) : strlen(rest);
+    char hp[PL_SINK_SPEC_MAX + 1];
+    memcpy(hp, rest, n);
+    hp[n] = '\0';
+    int rc = parse_host_port(spec, hp, min_port, sp);
+    if (rc < 0) return rc;
+    snprintf(sp->resource, sizeof sp->resource, "%s", slash ? slash : "");
+    for (const char *p = sp->resource; *p; p++)
+        if ((unsigned char)*p <= 0x20 || *p == 0x7f)
+            return pl_error(PL_E_ARG, "sink '%s': a space or control character after the port",
+                            spec);
+    return 0;
+}
+
 static int parse_spec(const char *spec, sink_spec *sp)
 {
     memset(sp, 0, sizeof *sp);
@@ -115,6 +137,29 @@ static int parse_spec(const char *spec, sink_spec *sp)
     if (!strncmp(spec, "tcp://", 6)) {
         sp->kind = SINK_TCP;
         return parse_host_port(spec, spec + 6, 0, sp);
+    }
+    if (!strncmp(spec, "ws://", 5)) {
+        sp->kind = SINK_WS;
+        int rc = parse_host_port_resource(spec, spec + 5, 0, sp);
+        if (rc < 0) return rc;
+        if (sp->resource[0] == '\0') strcpy(sp->resource, "/");
+        if (strpbrk(sp->resource, "?#"))
+            return pl_error(PL_E_ARG, "sink '%s': the path may not hold '?' or '#'", spec);
+        return 0;
+    }
+    if (!strncmp(spec, "mqtt://", 7)) {
+        sp->kind = SINK_MQTT;
+        int rc = parse_host_port_resource(spec, spec + 7, 1, sp);
+        if (rc < 0) return rc;
+        if (sp->resource[0] != '/' || sp->resource[1] == '\0')
+            return pl_error(PL_E_ARG, "sink '%s': missing the topic: mqtt://HOST:PORT/TOPIC", spec);
+        memmove(sp->resource, sp->resource + 1, strlen(sp->resource));
+        if (strpbrk(sp->resource, "+#"))
+            return pl_error(PL_E_ARG,
+                            "sink '%s': topic '%s' holds a wildcard ('+' or '#'): a message is "
+                            "published to one topic",
+                            spec, sp->resource);
+        return 0;
     }
     if (!strncmp(spec, "unix:", 5)) {
         sp->kind = SINK_UNIX;
@@ -289,9 +334,17 @@ int pl_sink_open_opts(const char *spec, const pl_sink_options *opts, pl_sink **o
         rc = sink_server_init(s, opts);
         if (rc == 0) rc = sink_server_open_unix(s, &sp);
         break;
+    case SINK_WS:
+        rc = sink_ws_open(s, &sp, opts);
+        break;
+    case SINK_MQTT:
+        rc = sink_mqtt_open(s, &sp, opts);
+        break;
     }
     if (rc < 0) {
         if (s->kind == SINK_TCP || s->kind == SINK_UNIX) sink_server_close(s);
+        if (s->kind == SINK_WS) sink_ws_close(s);
+        if (s->kind == SINK_MQTT) sink_mqtt_close(s);
         free(s);
         return rc;
     }
@@ -315,13 +368,28 @@ int pl_sink_write(pl_sink *s, const char *line, size_t len)
     case SINK_TCP:
     case SINK_UNIX:
         return sink_server_write(s, line, len);
+    case SINK_WS:
+        return sink_ws_write(s, line, len);
+    case SINK_MQTT:
+        return sink_mqtt_write(s, line, len);
     }
     return pl_error(PL_E_INTERNAL, "sink '%s': bad kind", s->spec);
 }
 
 int pl_sink_service(pl_sink *s)
 {
-    return s && (s->kind == SINK_TCP || s->kind == SINK_UNIX) ? sink_server_service(s) : 0;
+    if (!s) return 0;
+    switch (s->kind) {
+    case SINK_TCP:
+    case SINK_UNIX:
+        return sink_server_service(s);
+    case SINK_WS:
+        return sink_ws_service(s);
+    case SINK_MQTT:
+        return sink_mqtt_service(s);
+    default:
+        return 0;
+    }
 }
 
 int pl_sink_next_event(pl_sink *s, char *msg, size_t cap)
@@ -373,6 +441,12 @@ void pl_sink_close(pl_sink *s)
     case SINK_TCP:
     case SINK_UNIX:
         sink_server_close(s);
+        break;
+    case SINK_WS:
+        sink_ws_close(s);
+        break;
+    case SINK_MQTT:
+        sink_mqtt_close(s);
         break;
     }
     free(s);

@@ -7,6 +7,12 @@
  *   tcp://HOST:PORT       a TCP server listening on HOST:PORT for any number of readers
  *                         (PORT 0..65535; 0 = a free port, see pl_sink_address)
  *   unix:PATH             a Unix stream-socket server at PATH (< 108 bytes)
+ *   ws://HOST:PORT[/PATH] a WebSocket server (libwebsockets) on HOST:PORT for browsers; PATH
+ *                         (default "/") is the only resource it upgrades; PORT 0..65535
+ *   mqtt://HOST:PORT/TOPIC publishes each line to TOPIC on an MQTT broker (libmosquitto);
+ *                         TOPIC: no '+' or '#', no control characters; PORT 1..65535
+ * ws and mqtt are optional features of the build (`build/features`: ws, mqtt); without the
+ * library, opening one is PL_E_UNSUPPORTED naming the package to install.
  * HOST is an IPv4 address (127.0.0.1), an IPv6 address in brackets ([::1]), or a host name
  * (letters, digits, '-', '.', '_'; resolved once at open, the first usable address is taken).
  * An empty HOST (tcp://:9000, udp://:5000) means 127.0.0.1: a server listens on loopback unless a
@@ -30,6 +36,25 @@
  *     write after it connects and receives whole lines from then on; a client that is dropped
  *     may read the start of one more line (what the kernel had already taken) before EOF, so a
  *     reader discards an unterminated last line.
+ *   - ws: the same model as tcp, with libwebsockets doing the protocol on sockets this sink
+ *     accepts itself (lws_service with a negative timeout: one poll that does not wait). Each
+ *     line goes to every admitted client as one text message, without its '\n'. Per-client queue
+ *     of PL_SINK_QUEUE_BYTES, slow clients dropped, max_clients and token as for tcp: the token
+ *     is the client's first message (text or binary, a trailing "\n" or "\r\n" ignored). A
+ *     refused client receives the refusal JSON as a text message, then a close frame with code
+ *     1008 and the reason. At most max_clients + PL_SINK_WS_HANDSHAKES connections may be open
+ *     at once counting those still in their HTTP handshake or being refused; one more is closed
+ *     at accept. What clients send after the token is read and discarded (frames delivered in
+ *     chunks of at most PL_SINK_WS_RX bytes; pings are answered by libwebsockets).
+ *     Opening a ws sink makes the process ignore SIGPIPE (libwebsockets does this).
+ *   - mqtt: libmosquitto without its thread: each write runs mosquitto_loop with a zero timeout.
+ *     The connection is made in the background (mosquitto_connect_async) and made again after a
+ *     loss, with a backoff from PL_SINK_MQTT_RETRY_MIN_MS doubling to PL_SINK_MQTT_RETRY_MAX_MS.
+ *     Lines written while not connected (or when PL_SINK_MQTT_INFLIGHT messages are still
+ *     unsent or unacknowledged) are dropped and counted in lines_dropped. Each line is one
+ *     retained message (payload without the '\n'), QoS 0 or 1. HOST is resolved once at open
+ *     (like udp); with TLS the host name itself is given to libmosquitto for the certificate
+ *     check, so a name is resolved again at each connection.
  *   - udp: a non-blocking connected socket; a line that the socket cannot take right now
  *     (EAGAIN) or that nobody receives (ICMP refused) is dropped and counted; a line longer than
  *     PL_SINK_UDP_MAX bytes is an error for that line (counted; the sink stays usable).
@@ -57,6 +82,12 @@
 #define PL_SINK_SPEC_MAX 255  /* longest spec accepted */
 #define PL_SINK_CLOSE_MS 250  /* how long pl_sink_close may spend flushing clients */
 #define PL_SINK_EVENT_MAX 256 /* longest event message, with its NUL */
+#define PL_SINK_WS_HANDSHAKES 16      /* ws connections beyond max_clients (handshake, refusal) */
+#define PL_SINK_WS_RX 512             /* ws receive chunk, bytes */
+#define PL_SINK_MQTT_INFLIGHT 32      /* mqtt messages handed to libmosquitto, not yet sent/acked */
+#define PL_SINK_MQTT_RETRY_MIN_MS 250 /* first wait before connecting again to the broker */
+#define PL_SINK_MQTT_RETRY_MAX_MS 8000 /* longest wait between attempts */
+#define PL_SINK_MQTT_KEEPALIVE_S 10    /* MQTT keepalive: a dead broker is noticed in ~1.5x */
 
 typedef struct pl_sink pl_sink;
 
@@ -64,7 +95,8 @@ typedef struct pl_sink_stats {
     uint64_t lines;         /* lines accepted by pl_sink_write */
     uint64_t lines_failed;  /* lines rejected: too long for a datagram or the queue, or a
                                write error on stdout / udp */
-    uint64_t lines_dropped; /* udp: lines the socket could not take or nobody received */
+    uint64_t lines_dropped; /* udp: lines the socket could not take or nobody received;
+                               mqtt: lines while not connected or with too many in flight */
     uint64_t bytes;         /* bytes handed to the kernel (all clients) */
     int clients;            /* clients connected now (tcp, unix) */
     uint64_t accepted;      /* clients accepted since open */
@@ -72,13 +104,15 @@ typedef struct pl_sink_stats {
     uint64_t disconnected;  /* clients gone (closed, reset) */
     uint64_t refused;       /* connections closed at once: max_clients reached */
     uint64_t unauthorized;  /* clients closed for a wrong, missing or late token */
+    uint64_t connects;      /* mqtt: connections to the broker accepted (CONNACK), first included */
 } pl_sink_stats;
 
-/* How stream servers (tcp, unix) admit readers; other sinks ignore it. Zeroed = the defaults.
+/* How stream servers (tcp, unix, ws) admit readers and how mqtt connects; each sink ignores what
+ * is not its own. Zeroed = the defaults.
  *   max_clients  readers at once, 1..PL_SINK_CLIENTS_LIMIT (0: PL_SINK_MAX_CLIENTS). A client
  *                that finds every slot taken reads {"error":"refused","reason":"N clients
- *                already connected (--max-clients)"} and EOF. A client waiting for its token holds a slot.
- *   unix_mode    permission bits of a unix: socket file, created with them (umask set around
+ *                already connected (--max-clients)"} and EOF. A client waiting for its token holds
+ * a slot. unix_mode    permission bits of a unix: socket file, created with them (umask set around
  *                bind, so there is no moment with wider ones): 0 means 0600, owner only.
  *                Connecting needs write permission: 0660 lets the file's group read the stream.
  *   token        NULL or "": none. Else every new client must first send this token and '\n'
@@ -92,6 +126,21 @@ typedef struct pl_sink_options {
     unsigned unix_mode;
     const char *token;
     int token_ms;
+    /* mqtt: strings are copied at open; NULL or "" = not set.
+     *   mqtt_qos        0 (default) or 1
+     *   mqtt_client_id  1..64 of [0-9A-Za-z_.-]; default "parlight-<pid>" (two clients with
+     *                   one id take turns: the broker drops the older connection)
+     *   mqtt_username   with mqtt_password (may be NULL): the broker's password login
+     *   mqtt_ca_file    turns on TLS: the CA certificate(s) the broker's certificate must chain
+     *                   to, and whose host name it must carry (mosquitto_tls_set)
+     *   mqtt_cert_file, mqtt_key_file  a client certificate and its key (both or neither; TLS) */
+    int mqtt_qos;
+    const char *mqtt_client_id;
+    const char *mqtt_username;
+    const char *mqtt_password;
+    const char *mqtt_ca_file;
+    const char *mqtt_cert_file;
+    const char *mqtt_key_file;
 } pl_sink_options;
 
 /* Opens the sink described by spec (see above) with the default options. *out owned by the
@@ -109,7 +158,8 @@ int pl_sink_write(pl_sink *sink, const char *line, size_t len);
 
 /* Accepts pending readers and reads what they sent (tokens), without writing a line: for a
  * caller waiting for readers before its first line. Returns the readers admitted now (connected
- * and past the token, if any); 0 for stdout and udp. */
+ * and past the token, if any); 0 for stdout and udp; mqtt: runs the client's network loop
+ * (connects, keepalive) and returns 0. */
 int pl_sink_service(pl_sink *sink);
 
 /* Copies the oldest pending event message into msg (cap bytes, truncated, NUL-terminated) and

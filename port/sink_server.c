@@ -33,16 +33,25 @@ static void client_drop(pl_sink *s, sink_client *c)
     s->stats.clients--;
 }
 
+size_t sink_refusal_json(char *out, size_t cap, const char *reason)
+{
+    int n = snprintf(out, cap, "{\"error\":\"refused\",\"reason\":\"%s\"}\n", reason);
+    if (n <= 0) {
+        if (cap) out[0] = '\0';
+        return 0;
+    }
+    size_t len = (size_t)n < cap ? (size_t)n : cap - 1;
+    return len > 0 && out[len - 1] == '\n' ? len - 1 : len;
+}
+
 /* One JSON line telling a client why it is turned away, {"error":"refused","reason":"..."} (a
  * JSON-lines reader parses it like a frame), sent if the socket takes it now: it is closed right
  * after, so nothing waits for a slow reader. Reasons are parlight's own text, without quotes. */
 static void tell_refused(int fd, const char *reason)
 {
     char msg[160];
-    int n = snprintf(msg, sizeof msg, "{\"error\":\"refused\",\"reason\":\"%s\"}\n", reason);
-    if (n > 0)
-        (void)send(fd, msg, (size_t)n < sizeof msg ? (size_t)n : sizeof msg - 1,
-                   MSG_DONTWAIT | MSG_NOSIGNAL);
+    size_t n = sink_refusal_json(msg, sizeof msg, reason);
+    if (n > 0) (void)send(fd, msg, msg[n] == '\n' ? n + 1 : n, MSG_DONTWAIT | MSG_NOSIGNAL);
 }
 
 static void client_unauthorized(pl_sink *s, sink_client *c, const char *why)
@@ -53,8 +62,7 @@ static void client_unauthorized(pl_sink *s, sink_client *c, const char *why)
     client_drop(s, c);
 }
 
-/* Equal in time independent of where the first difference is (a token compare). */
-static int same_secret(const char *a, size_t na, const char *b, size_t nb)
+int sink_same_secret(const char *a, size_t na, const char *b, size_t nb)
 {
     unsigned char d = (unsigned char)(na != nb);
     for (size_t i = 0; i < PL_SINK_TOKEN_MAX; i++) {
@@ -64,9 +72,9 @@ static int same_secret(const char *a, size_t na, const char *b, size_t nb)
     return d == 0;
 }
 
-int sink_server_init(pl_sink *s, const pl_sink_options *o)
+int sink_access_init(pl_sink *s, const pl_sink_options *o)
 {
-    static const pl_sink_options defaults = {0, 0, NULL, 0};
+    static const pl_sink_options defaults = {0};
     if (!o) o = &defaults;
     s->max_clients = o->max_clients ? o->max_clients : PL_SINK_MAX_CLIENTS;
     if (s->max_clients < 1 || s->max_clients > PL_SINK_CLIENTS_LIMIT)
@@ -91,6 +99,13 @@ int sink_server_init(pl_sink *s, const pl_sink_options *o)
                                 s->spec);
         memcpy(s->token, o->token, n + 1);
     }
+    return 0;
+}
+
+int sink_server_init(pl_sink *s, const pl_sink_options *o)
+{
+    int rc = sink_access_init(s, o);
+    if (rc < 0) return rc;
     s->clients = calloc((size_t)s->max_clients, sizeof *s->clients);
     s->pf = calloc((size_t)s->max_clients, sizeof *s->pf);
     s->pf_idx = calloc((size_t)s->max_clients, sizeof *s->pf_idx);
@@ -212,7 +227,7 @@ static void read_token(pl_sink *s, sink_client *c)
     }
     size_t n = (size_t)(nl - c->tok);
     if (n > 0 && c->tok[n - 1] == '\r') n--;
-    if (!same_secret(c->tok, n, s->token, strlen(s->token))) {
+    if (!sink_same_secret(c->tok, n, s->token, strlen(s->token))) {
         client_unauthorized(s, c, "wrong token");
         return;
     }

@@ -2,7 +2,10 @@
  * reader that never reads (dropped; pl_sink_write stays fast, the other reader gets every line),
  * a reader that disconnects mid-stream (no SIGPIPE death), stdout into a closed pipe, Unix socket
  * round trip, stale and live socket files, several sinks at once, the client limit, a bounded
- * close, and every malformed spec. Every wait has a timeout and alarm() guards the whole run. */
+ * close, every malformed spec (ws and mqtt too), an mqtt sink without a broker (writes return at
+ * once, lines dropped and counted) and one ws frame read raw (a text frame without the newline);
+ * in a build without libwebsockets/libmosquitto, that opening those says so. Every wait has a
+ * timeout and alarm() guards the whole run. */
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -170,6 +173,23 @@ static void test_malformed_specs(void)
         "unix:",
         "unix://tmp/x.sock",
         long_path,
+        "ws://",
+        "ws://127.0.0.1",
+        "ws://127.0.0.1:70000/",
+        "ws://::1:9000/",
+        "ws://[::1]9000/x",
+        "ws://127.0.0.1:9000/a?b",
+        "ws://127.0.0.1:9000/a#b",
+        "ws://127.0.0.1:9000/a b",
+        "WS://127.0.0.1:9000/",
+        "mqtt://",
+        "mqtt://127.0.0.1:1883",
+        "mqtt://127.0.0.1:1883/",
+        "mqtt://127.0.0.1:0/t",
+        "mqtt://127.0.0.1:1883/a/+/b",
+        "mqtt://127.0.0.1:1883/#",
+        "mqtt://:/t",
+        "mqtt:/127.0.0.1:1883/t",
         "http://localhost:80",
         "file:/tmp/x",
         "stdout:",
@@ -879,6 +899,122 @@ static void test_ipv6(void)
     pl_sink_close(s);
 }
 
+/* ---- ws and mqtt: what can be checked without a browser or a broker ------------------------ */
+
+/* A port nothing listens on (bound, then closed). */
+static int closed_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    struct sockaddr_in sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t sl = sizeof sa;
+    int port = -1;
+    if (fd >= 0 && bind(fd, (struct sockaddr *)&sa, sizeof sa) == 0 &&
+        getsockname(fd, (struct sockaddr *)&sa, &sl) == 0)
+        port = ntohs(sa.sin_port);
+    if (fd >= 0) close(fd);
+    return port;
+}
+
+static void test_mqtt_no_broker(void)
+{
+    char spec[64];
+    snprintf(spec, sizeof spec, "mqtt://127.0.0.1:%d/parlight/test", closed_port());
+    pl_sink *s = NULL;
+#ifdef PL_HAVE_MOSQUITTO
+    pl_sink_options o = {0};
+    o.mqtt_qos = 2;
+    CHECK(pl_sink_open_opts(spec, &o, &s) == PL_E_ARG && strstr(pl_last_error(), "QoS 2"),
+          "qos 2: %s", pl_last_error());
+    o.mqtt_qos = 1;
+    o.mqtt_cert_file = "/etc/hostname";
+    CHECK(pl_sink_open_opts(spec, &o, &s) == PL_E_ARG && strstr(pl_last_error(), "--mqtt-key"),
+          "a certificate without its key: %s", pl_last_error());
+    o.mqtt_cert_file = NULL;
+    o.mqtt_client_id = "no spaces";
+    CHECK(pl_sink_open_opts(spec, &o, &s) == PL_E_ARG && strstr(pl_last_error(), "client id"),
+          "a bad client id: %s", pl_last_error());
+    o.mqtt_client_id = "parlight-test_1.0";
+    int rc = pl_sink_open_opts(spec, &o, &s);
+    CHECK(rc == 0, "open %s without a broker: %s", spec, pl_last_error());
+    if (rc < 0) return;
+    char line[256];
+    size_t len = make_line(line, sizeof line, 0, 10);
+    const double t0 = now_s();
+    for (int i = 0; i < 50; i++)
+        CHECK(pl_sink_write(s, line, len) == 0, "write %d without a broker: %s", i, pl_last_error());
+    const double dt = now_s() - t0;
+    pl_sink_stats st;
+    pl_sink_get_stats(s, &st);
+    CHECK(st.lines == 50 && st.lines_dropped == 50 && st.connects == 0,
+          "no broker: %llu lines, %llu dropped, %llu connects", (unsigned long long)st.lines,
+          (unsigned long long)st.lines_dropped, (unsigned long long)st.connects);
+    CHECK(dt < 1.0, "50 writes without a broker took %.3f s", dt);
+    int said = 0;
+    char ev[PL_SINK_EVENT_MAX];
+    while (pl_sink_next_event(s, ev, sizeof ev))
+        said |= strstr(ev, "cannot connect to the broker") && strstr(ev, "Connection refused");
+    CHECK(said, "no event says the broker cannot be reached");
+    printf("mqtt without a broker: 50 lines dropped in %.3f ms\n", dt * 1e3);
+    pl_sink_close(s);
+#else
+    CHECK(pl_sink_open(spec, &s) == PL_E_UNSUPPORTED && strstr(pl_last_error(), "libmosquitto"),
+          "mqtt in a build without libmosquitto: %s", pl_last_error());
+#endif
+}
+
+/* The WebSocket upgrade by hand and one frame read raw: a text frame (0x81) whose payload is the
+ * line without its '\n'. Browsers are tested in tests/test_sink_ws.sh. */
+static void test_ws_frame(void)
+{
+    pl_sink *s = NULL;
+#ifdef PL_HAVE_LWS
+    int rc = pl_sink_open("ws://127.0.0.1:0/lights", &s);
+    CHECK(rc == 0, "open ws: %s", pl_last_error());
+    if (rc < 0) return;
+    int fd = connect_tcp(addr_port(pl_sink_address(s)), 0);
+    CHECK(fd >= 0, "connect to %s", pl_sink_address(s));
+    const char req[] = "GET /lights HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\n"
+                       "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                       "Sec-WebSocket-Version: 13\r\n\r\n";
+    CHECK(send(fd, req, sizeof req - 1, 0) == (ssize_t)(sizeof req - 1), "send the upgrade");
+    int admitted = 0;
+    for (int i = 0; i < 500 && !admitted; i++) { /* up to 5 s */
+        admitted = pl_sink_service(s);
+        if (!admitted) usleep(10000);
+    }
+    CHECK(admitted == 1, "the client was not admitted");
+    char resp[1024], *end = NULL;
+    size_t n = 0;
+    while (n < sizeof resp - 1 && !end) {
+        size_t got = read_bytes(fd, resp + n, 1, 2000);
+        if (got == 0) break;
+        n += got;
+        resp[n] = '\0';
+        end = strstr(resp, "\r\n\r\n");
+    }
+    CHECK(end && !strncmp(resp, "HTTP/1.1 101", 12), "upgrade answer: %.40s", resp);
+    char line[256];
+    size_t len = make_line(line, sizeof line, 7, 20);
+    CHECK(pl_sink_write(s, line, len) == 0, "write: %s", pl_last_error());
+    unsigned char hdr[2] = {0, 0};
+    char payload[256] = "";
+    CHECK(read_bytes(fd, (char *)hdr, 2, 5000) == 2, "no frame header");
+    CHECK(hdr[0] == 0x81 && (hdr[1] & 0x7f) == len - 1, "frame header %02x %02x for %zu bytes",
+          hdr[0], hdr[1], len - 1);
+    CHECK(read_bytes(fd, payload, len - 1, 5000) == len - 1 && !memcmp(payload, line, len - 1),
+          "the payload is not the line without its newline");
+    close(fd);
+    pl_sink_close(s);
+#else
+    CHECK(pl_sink_open("ws://127.0.0.1:0/", &s) == PL_E_UNSUPPORTED &&
+              strstr(pl_last_error(), "libwebsockets"),
+          "ws in a build without libwebsockets: %s", pl_last_error());
+#endif
+}
+
 #define RUN(f) (printf("-- %s\n", #f), fflush(stdout), f())
 
 int main(void)
@@ -899,6 +1035,8 @@ int main(void)
     RUN(test_unix);
     RUN(test_sinks);
     RUN(test_ipv6);
+    RUN(test_mqtt_no_broker);
+    RUN(test_ws_frame);
     if (failures) {
         printf("%d failure(s)\n", failures);
         return 1;

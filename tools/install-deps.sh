@@ -18,6 +18,11 @@ PKGS=(
     libopencv-dev          # other image formats and videos (port/image_io.cpp, port/video_cv.cpp)
     libopenexr-dev         # .exr panoramas and maps
     libcamera-dev          # libcamera camera source (port/source_libcamera.cpp)
+    libwebsockets-dev      # --out ws:// (port/sink_ws.c)
+    libmosquitto-dev       # --out mqtt:// (port/sink_mqtt.c)
+    mosquitto mosquitto-clients  # tests/test_sink_mqtt.sh runs its own broker (own config, 127.0.0.1, a free
+                           # port) and mosquitto_sub; a system broker the package may start is not used
+    python3-websockets     # tests/test_sink_ws.sh: a browser-like WebSocket client
     python3-torch python3-torchvision python3-numpy python3-pil   # reference model, exporter, golden tests
     nodejs python3-onnx    # make bench: ONNX Runtime peer (npm onnxruntime-node under node) and its ONNX models (tools/bench)
     time                   # make bench: /usr/bin/time -v for the peak RSS of parlight estimate
@@ -33,6 +38,9 @@ case "$DEB_ARCH" in
             gcc-aarch64-linux-gnu g++-aarch64-linux-gnu libc6-dev-arm64-cross  # cross toolchain
             qemu-user                                     # runs the board's tests (qemu-aarch64)
             libjpeg62-turbo-dev:arm64 libpng-dev:arm64 zlib1g-dev:arm64  # the target's codecs
+            libmosquitto-dev:arm64 # the target's mqtt:// sink. Not libwebsockets-dev:arm64: Debian 12's
+                                   # cannot sit beside the host's (their /usr/include/lws_config.h
+                                   # differ), so board builds have no ws:// (docs/PORTING.md)
         ) ;;
     *) echo "install-deps: boards/$BOARD.mk: no cross packages known for '$DEB_ARCH'" >&2; exit 1 ;;
 esac
