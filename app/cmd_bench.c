@@ -13,8 +13,7 @@
 #include "app/commands.h"
 #include "core/util.h"
 #include "kernels/isa.h"
-#include "model/arch.h"
-#include "model/plm.h"
+#include "model/graph.h"
 #include "model/profile.h"
 #include "parlight.h"
 #include "port/image.h"
@@ -56,67 +55,16 @@ static void help(FILE *f)
            "compare across engines.\n");
 }
 
-/* Output side of a k x k convolution or pooling window with stride s and padding p. */
-static int64_t out_side(int64_t in, int k, int s, int p)
+/* Multiply-accumulates of one frame through the model's graph (model/graph.h: convolutions as
+ * tools/model.py writes them, transitions' 1x1 at full size before their pool; FC, heads).
+ * Pooling, BN, ReLU and additions are not counted. */
+static int64_t model_macs(const pl_model *m)
 {
-    return (in + 2 * p - k) / s + 1;
-}
-
-/* Multiply-accumulates of one frame through densenet121-parametric at in_h x in_w (tools/model.py
- * graph order: conv0 7x7/2, max pool 3x3/2, dense layers 1x1 to BOTTLENECK then 3x3 to GROWTH,
- * transitions 1x1 at full size then 2x2 pooling, band pooling, FC, heads). Pooling, BN, ReLU and
- * additions are not counted. */
-static int64_t densenet_macs(int in_h, int in_w, int n_lights, int bands, int fc_n, int dist_hidden)
-{
-    int64_t h = out_side(in_h, 7, 2, 3), w = out_side(in_w, 7, 2, 3);
-    int64_t macs = (int64_t)block_c0[0] * 3 * 7 * 7 * h * w;
-    h = out_side(h, 3, 2, 1);
-    w = out_side(w, 3, 2, 1);
-    for (int b = 0; b < N_BLOCKS; b++) {
-        int64_t c = block_c0[b];
-        for (int l = 0; l < block_layers[b]; l++) {
-            macs += c * BOTTLENECK * h * w + (int64_t)BOTTLENECK * GROWTH * 9 * h * w;
-            c += GROWTH;
-        }
-        if (b + 1 < N_BLOCKS) {
-            macs += c * (c / 2) * h * w;
-            h /= 2;
-            w /= 2;
-        }
-    }
-    const int64_t z = (int64_t)FEATURES * bands, n = n_lights;
-    macs += z * fc_n;                                /* fc */
-    macs += (int64_t)fc_n * (3 * n + n + 3 * n + 3); /* dir, size, rgb, ambient heads */
-    macs += (z + 3 * n) * dist_hidden + (int64_t)dist_hidden * n; /* distance head */
+    const pl_graph *g = pl_model_graph(m);
+    int64_t macs = 0;
+    for (int i = 0; i < g->n_nodes; i++)
+        macs += pl_graph_node_macs(g, &g->nodes[i]);
     return macs;
-}
-
-/* Reads an integer metadata key of the model file (the public info does not carry it). */
-static int meta_int(const pl_plm *f, const char *key, int lo, int hi, int *out)
-{
-    const char *v = pl_plm_meta(f, key);
-    if (!v) return pl_error(PL_E_MODEL, "%s: metadata '%s' missing", f->path, key);
-    char *end;
-    long x = strtol(v, &end, 10);
-    if (end == v || *end || x < lo || x > hi)
-        return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected an integer in %d..%d", f->path,
-                        key, v, lo, hi);
-    *out = (int)x;
-    return PL_OK;
-}
-
-static int model_macs(const char *path, const pl_model_info *info, int64_t *macs)
-{
-    pl_plm f;
-    if (pl_plm_open(path, &f) < 0) return -1;
-    int bands, fc_n, dist_hidden;
-    int rc = meta_int(&f, "bands", 1, 64, &bands);
-    if (rc == PL_OK) rc = meta_int(&f, "fc", 1, 65536, &fc_n);
-    if (rc == PL_OK) rc = meta_int(&f, "dist_hidden", 1, 65536, &dist_hidden);
-    pl_plm_close(&f);
-    if (rc < 0) return rc;
-    *macs = densenet_macs(info->input_h, info->input_w, info->n_lights, bands, fc_n, dist_hidden);
-    return PL_OK;
 }
 
 /* A fixed frame of w x h: smooth gradients with a bright window and a hashed texture, so the
@@ -255,10 +203,11 @@ int cmd_bench(int argc, char **argv)
     }
     pl_model_info info;
     int64_t macs;
-    if (pl_model_get_info(model, &info) < 0 || model_macs(model_path, &info, &macs) < 0) {
+    if (pl_model_get_info(model, &info) < 0) {
         fprintf(stderr, "parlight bench: %s\n", pl_last_error());
         goto out;
     }
+    macs = model_macs(model);
     if (input) {
         if (pl_image_read_rgb8(input, &frame) < 0) {
             fprintf(stderr, "parlight bench: %s\n", pl_last_error());

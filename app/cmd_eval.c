@@ -21,6 +21,7 @@
 #include "model/resize.h"
 #include "parlight.h"
 #include "port/hdr_io.h"
+#include "port/json_file.h"
 
 static void usage(FILE *f)
 {

@@ -12,6 +12,7 @@
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "port/hdr_io.h"
+#include "port/json_file.h"
 
 static void usage(FILE *f)
 {

@@ -7,7 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/file.h"
 #include "core/util.h"
 
 typedef struct parser {
@@ -472,51 +471,6 @@ int pl_json_parse(const char *text, size_t len, const char *name, pl_json_doc *d
         if (p.i != p.n) rc = fail_at(&p, p.i, "expected end of input after the value");
     }
     if (rc < 0) free_value(&doc->root);
-    return rc;
-}
-
-int pl_json_read_file(const char *path, pl_json_doc *doc)
-{
-    if (!doc || !path) return pl_error(PL_E_ARG, "pl_json_read_file: NULL argument");
-    memset(doc, 0, sizeof *doc);
-    FILE *f;
-    int rc = pl_file_fopen_regular(path, NULL, &f);
-    if (rc < 0) return rc;
-    size_t cap = 4096, n = 0;
-    char *buf = malloc(cap);
-    if (!buf) {
-        fclose(f);
-        return pl_error(PL_E_NOMEM, "%s: out of memory", path);
-    }
-    for (;;) {
-        if (n == cap) {
-            if (cap > PL_JSON_MAX_BYTES) {
-                rc = pl_error(PL_E_FORMAT, "%s: larger than %zu bytes", path,
-                              (size_t)PL_JSON_MAX_BYTES);
-                goto out;
-            }
-            char *nb = realloc(buf, cap * 2);
-            if (!nb) {
-                rc = pl_error(PL_E_NOMEM, "%s: out of memory", path);
-                goto out;
-            }
-            buf = nb;
-            cap *= 2;
-        }
-        size_t got = fread(buf + n, 1, cap - n, f);
-        n += got;
-        if (got == 0) {
-            if (ferror(f)) {
-                rc = pl_error(PL_E_IO, "%s: cannot read: %s", path, strerror(errno));
-                goto out;
-            }
-            break;
-        }
-    }
-    rc = pl_json_parse(buf, n, path, doc);
-out:
-    free(buf);
-    fclose(f);
     return rc;
 }
 

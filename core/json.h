@@ -46,8 +46,6 @@ typedef struct pl_json_doc {
 /* Parses len bytes of text (need not be NUL-terminated). `name` (a file name, or NULL for
  * "json") starts error messages. On failure *doc is empty and needs no free. */
 int pl_json_parse(const char *text, size_t len, const char *name, pl_json_doc *doc);
-/* Reads a whole file (at most PL_JSON_MAX_BYTES) and parses it; messages name the path. */
-int pl_json_read_file(const char *path, pl_json_doc *doc);
 void pl_json_free(pl_json_doc *doc);
 
 /* The member `key` of an object, or NULL (also when v is not an object). */

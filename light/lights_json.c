@@ -44,7 +44,7 @@ static int get_vec3(const char *name, const pl_json_value *v, const char *what, 
     return 0;
 }
 
-static int from_doc(const char *name, const pl_json_value *root, pl_lighting *out)
+int pl_lighting_from_json(const char *name, const pl_json_value *root, pl_lighting *out)
 {
     pl_lighting L;
     memset(&L, 0, sizeof L);
@@ -99,18 +99,7 @@ int pl_lighting_parse_json(const char *text, size_t len, pl_lighting *out)
     pl_json_doc doc;
     int rc = pl_json_parse(text, len, "lights json", &doc);
     if (rc < 0) return rc;
-    rc = from_doc("lights json", &doc.root, out);
-    pl_json_free(&doc);
-    return rc;
-}
-
-int pl_lighting_read_json(const char *path, pl_lighting *out)
-{
-    if (!out || !path) return pl_error(PL_E_ARG, "pl_lighting_read_json: NULL argument");
-    pl_json_doc doc;
-    int rc = pl_json_read_file(path, &doc);
-    if (rc < 0) return rc;
-    rc = from_doc(path, &doc.root, out);
+    rc = pl_lighting_from_json("lights json", &doc.root, out);
     pl_json_free(&doc);
     return rc;
 }

@@ -12,12 +12,14 @@
 
 #include <stddef.h>
 
+#include "core/json.h"
 #include "parlight.h"
 
-/* Reads a file (at most PL_JSON_MAX_BYTES) and parses it; errors name the path. */
-int pl_lighting_read_json(const char *path, pl_lighting *out);
-/* Parses len bytes of text (need not be NUL-terminated). */
+/* Parses len bytes of text (need not be NUL-terminated). A file: pl_lighting_read_json
+ * (port/json_file.h). */
 int pl_lighting_parse_json(const char *text, size_t len, pl_lighting *out);
+/* The lighting of a parsed document's root; messages start with `name`. */
+int pl_lighting_from_json(const char *name, const pl_json_value *root, pl_lighting *out);
 /* Appends `"lights":[...],"ambient":[r,g,b]` (no braces) to buf, NUL-terminated; returns bytes
  * written (excluding the NUL) or <0 (PL_E_ARG when cap is too small). Numbers with %.9g, so a
  * float round-trips exactly. */

@@ -162,7 +162,7 @@ static int from_doc(const char *name, const pl_json_value *root, pl_ridge *r)
     return 0;
 }
 
-static int finish(const char *name, pl_json_doc *doc, pl_ridge **out)
+int pl_ridge_from_json(const char *name, pl_json_doc *doc, pl_ridge **out)
 {
     pl_ridge *r = calloc(1, sizeof *r);
     int rc = r ? from_doc(name, &doc->root, r) : pl_error(PL_E_NOMEM, "%s: out of memory", name);
@@ -183,17 +183,7 @@ int pl_ridge_parse(const char *text, size_t len, const char *name, pl_ridge **ou
     pl_json_doc doc;
     int rc = pl_json_parse(text ? text : "", len, name, &doc);
     if (rc < 0) return rc;
-    return finish(name, &doc, out);
-}
-
-int pl_ridge_load(const char *path, pl_ridge **out)
-{
-    if (!path || !out) return pl_error(PL_E_ARG, "pl_ridge_load: NULL argument");
-    *out = NULL;
-    pl_json_doc doc;
-    int rc = pl_json_read_file(path, &doc);
-    if (rc < 0) return rc;
-    return finish(path, &doc, out);
+    return pl_ridge_from_json(name, &doc, out);
 }
 
 void pl_ridge_free(pl_ridge *r)

@@ -37,6 +37,7 @@
 #include <stddef.h>
 
 #include "core/image.h"
+#include "core/json.h"
 #include "parlight.h"
 
 #define PL_RIDGE_FORMAT "parlight-ridge"
@@ -57,12 +58,12 @@ typedef struct pl_ridge {
     double *weights; /* [PL_RIDGE_N_OUT][n_features], owned */
 } pl_ridge;
 
-/* Reads and validates a model file; *out is allocated (pl_ridge_free). Errors: PL_E_IO (cannot
- * read), PL_E_FORMAT (not JSON, or a field missing or wrong: the message names file and field),
- * PL_E_NOMEM. */
-int pl_ridge_load(const char *path, pl_ridge **out);
-/* The same from len bytes of text; `name` starts the messages. */
+/* Validates a model from len bytes of text; *out is allocated (pl_ridge_free). Errors:
+ * PL_E_FORMAT (not JSON, or a field missing or wrong: the message, started by `name`, names the
+ * field), PL_E_NOMEM. A file: pl_ridge_load (port/json_file.h), PL_E_IO when it cannot read. */
 int pl_ridge_parse(const char *text, size_t len, const char *name, pl_ridge **out);
+/* The same from a parsed document, which it frees. */
+int pl_ridge_from_json(const char *name, pl_json_doc *doc, pl_ridge **out);
 void pl_ridge_free(pl_ridge *r);
 
 /* The features of an 8-bit RGB image (width >= cols, height >= rows) with gamma in 0.2..5 into

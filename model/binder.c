@@ -35,7 +35,8 @@ const pl_tensor *pl_bind(pl_binder *b, const char *name, pl_dtype dt, int ndim, 
                          got, exp);
         return NULL;
     }
-    b->used++;
+    const size_t i = (size_t)(t - f->tensors);
+    b->bound[i / 8] |= (uint8_t)(1u << (i % 8));
     return t;
 }
 
@@ -45,4 +46,15 @@ const float *pl_bind_f32(pl_binder *b, const char *name, int ndim, int d0, int d
     if (!t) return NULL;
     b->params += (int64_t)t->count;
     return t->data;
+}
+
+int pl_bind_finish(pl_binder *b, const char *what)
+{
+    if (b->rc < 0) return b->rc;
+    const pl_plm *f = b->file;
+    for (uint32_t i = 0; i < f->n_tensors; i++)
+        if (!(b->bound[i / 8] >> (i % 8) & 1))
+            return b->rc = pl_error(PL_E_MODEL, "%s: unexpected tensor '%s' for %s", f->path,
+                                    f->tensors[i].name, what);
+    return PL_OK;
 }

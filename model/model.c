@@ -13,7 +13,7 @@
 #include "core/threads.h"
 #include "core/util.h"
 #include "light/light.h"
-#include "model/arch.h"
+#include "model/graph.h"
 #include "model/net_f32.h"
 #include "model/net_s8.h"
 #include "model/observer.h"
@@ -46,8 +46,8 @@ static int parse_int(const pl_plm *f, const char *key, int lo, int hi, int *out)
     errno = 0;
     long x = strtol(v, &end, 10);
     if (errno || end == v || *end || x < lo || x > hi)
-        return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected an integer in %d..%d",
-                        f->path, key, v, lo, hi);
+        return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected an integer in %d..%d", f->path,
+                        key, v, lo, hi);
     *out = (int)x;
     return PL_OK;
 }
@@ -61,8 +61,7 @@ static int parse_float3(const pl_plm *f, const char *key, int positive, float ou
         char *end;
         errno = 0;
         double x = strtod(s, &end);
-        if (errno || end == s || !isfinite(x) || (positive && !(x > 0)) || fabs(x) > 1e6)
-            goto bad;
+        if (errno || end == s || !isfinite(x) || (positive && !(x > 0)) || fabs(x) > 1e6) goto bad;
         out[i] = (float)x;
         s = end;
         if (i < 2) {
@@ -72,8 +71,8 @@ static int parse_float3(const pl_plm *f, const char *key, int positive, float ou
     }
     if (*s == '\0') return PL_OK;
 bad:
-    return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected three %sfloats a,b,c", f->path,
-                    key, v, positive ? "positive " : "");
+    return pl_error(PL_E_MODEL, "%s: metadata %s='%s', expected three %sfloats a,b,c", f->path, key,
+                    v, positive ? "positive " : "");
 }
 
 /* The optional intensity_anchor=w,b,gamma (docs/FORMAT.md); absent: off (w = b = 0, gamma 2.2). */
@@ -100,9 +99,9 @@ int pl_model_load(const char *path, pl_model **out)
     }
     const pl_plm *f = &m->file;
     const char *arch = pl_plm_meta(f, "arch"), *prec = pl_plm_meta(f, "precision");
-    if (!arch || strcmp(arch, "densenet121-parametric")) {
-        rc = pl_error(PL_E_MODEL, "%s: architecture '%s', expected 'densenet121-parametric'",
-                      f->path, arch ? arch : "(missing)");
+    if (!arch || strcmp(arch, PL_ARCH_NAME)) {
+        rc = pl_error(PL_E_MODEL, "%s: architecture '%s', expected '" PL_ARCH_NAME "'", f->path,
+                      arch ? arch : "(missing)");
         goto fail;
     }
     if (!prec || (strcmp(prec, "fp32") && strcmp(prec, "int8"))) {
@@ -130,7 +129,12 @@ int pl_model_load(const char *path, pl_model **out)
                       m->in_h, m->in_w);
         goto fail;
     }
-    const pl_net_shape shape = {m->n_lights, m->in_h, m->in_w, m->bands, m->fc_n, m->dist_hidden,
+    const pl_net_shape shape = {m->n_lights,
+                                m->in_h,
+                                m->in_w,
+                                m->bands,
+                                m->fc_n,
+                                m->dist_hidden,
                                 {m->mean[0], m->mean[1], m->mean[2]},
                                 {m->std[0], m->std[1], m->std[2]}};
     if (!strcmp(prec, "int8")) {
@@ -232,6 +236,11 @@ int pl_model_set_profile(pl_model *m, pl_profile *p)
     if (m->s8) pl_s8_set_profile(m->s8, p);
     if (m->f32) pl_f32net_set_profile(m->f32, p);
     return PL_OK;
+}
+
+const pl_graph *pl_model_graph(const pl_model *m)
+{
+    return m->f32 ? pl_f32net_graph(m->f32) : pl_s8_graph(m->s8);
 }
 
 const char *pl_model_precision(const pl_model *m)

@@ -11,7 +11,7 @@
 #include <stdint.h>
 
 #include "core/threads.h"
-#include "model/arch.h"
+#include "model/graph.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/profile.h"
@@ -35,6 +35,7 @@ void pl_f32net_set_profile(pl_f32net *m, pl_profile *p);
  * aspect and validated by pl_estimate_rgb8, into *out; *t_pre: the end of the preprocessing. */
 void pl_f32net_estimate(pl_f32net *m, pl_pool *pool, const uint8_t *rgb, size_t stride, int x0,
                         int y0, int cw, int ch, pl_lighting *out, int64_t *t_pre);
+const pl_graph *pl_f32net_graph(const pl_f32net *m);
 /* The latent z of the last estimate. */
 void pl_f32net_latent(const pl_f32net *m, const float **z, int *n);
 

@@ -1,14 +1,15 @@
-/* The int8 executor of densenet121-parametric: loader, arena plan and forward pass.
+/* The int8 executor of the network's graph (model/graph.h): loader, arena plan and forward pass,
+ * each a walk over the graph's nodes.
  *
  * The folding that makes this graph work (docs/QUANT.md, "DenseNet folding") was done by the
  * quantiser; the file holds int8 weights with the pre-activation BN scales and the producers'
  * per-segment scales already folded in, int32 biases, per-output-channel weight scales, each
  * layer's output quantisation and the per-input-channel clamps. Activations are int8 NHWC.
  *
- * Arena (bytes), one allocation at load:
- *   A   conv0 output, block 2, block 4
- *   B   the padded u8 input (stored as s8, zero point -128), block 1, block 3
- *   T   the float resized input (before conversion), a dense layer's bottleneck, a
+ * Arena (bytes), one allocation at load, from the graph's slots:
+ *   A   slot A: conv0 output, block 2, block 4
+ *   B   slot B: the padded u8 input (stored as s8, zero point -128), block 1, block 3
+ *   T   slot T (the bottlenecks), the float resized input (before conversion), a
  *       transition's pooled input
  *   small: z (s8 and float), h (s8 and float), head outputs, the distance head's vectors
  *
@@ -33,11 +34,10 @@
 #include "kernels/ref/nn_ref_s8_clamp.h"
 #include "kernels/requant.h"
 #include "model/binder.h"
+#include "model/graph.h"
 #include "model/heads.h"
 #include "model/profile.h"
 #include "model/resize.h"
-
-#define STEM_PAD 3
 
 /* One int8 conv / FC as it runs. */
 struct s8_layer {
@@ -51,41 +51,35 @@ struct s8_layer {
     nn_conv_s8_params p;
     nn_dims in, filt, out;
     int in_stride, out_stride;
-    pl_s8_conv pc; /* the packed path's plan and weights (SIMD tables) */
+    pl_s8_conv pc;       /* the packed path's plan and weights (SIMD tables) */
     pl_s8_a_kind a_kind; /* how the packed path builds its input */
 };
 
-struct s8_dense {
-    struct s8_layer c1, c2;
-    int cin;
-};
-
-struct s8_trans {
-    struct s8_layer conv;
-    const int8_t *lo, *hi;
-    int cin;
-    /* kept float by the quantiser (--keep-float transitionN): the norm + ReLU as
-     * max(0, deq[c]*q + deq[cin + c]), the 1x1 conv in float with int8-stored weights w8
-     * [cin/2][cin] and a scale per row ws; conv keeps only its output grid (out_scale, out_zps) */
-    const float *deq, *ws;
+/* What the executor keeps of a node (model/graph.h). */
+struct s8_node {
+    struct s8_layer L; /* CONV and FC; BANDS and pooled convs keep their input clamps in L.lo/hi */
+    int into_next;     /* packed path: a 1x1 whose output goes straight into the interior of the
+                          next node's padded A (kernels/kernels_s8.h) */
+    int fill_pad;      /* packed path, the next node of an into_next: set its A's border (the
+                          zero point) first, as the A's shape changed since it was last set */
+    /* kept float by the quantiser (--keep-float transitionN or fc): a pooled conv's norm + ReLU
+     * as max(0, deq[c]*q + deq[in_c + c]), its 1x1 conv in float with int8-stored weights w8
+     * [out_c][in_c] and a scale per row ws, L keeping only its output grid (out_scale, out_zps);
+     * a float FC on the exact z, weights float (wf) or int8-stored with a scale per row (w8,
+     * ws), bf its float bias. BANDS: deq is [2][in_c], z = A[c]*zq + B[c]. */
+    const float *deq, *ws, *wf, *bf;
     const int8_t *w8;
 };
 
 struct pl_s8 {
     const pl_plm *file;
-    pl_net_shape sh;
+    pl_graph g;
     int64_t n_params;
     uint8_t pad_px[3];
+    int in_pad;  /* the input's border, the mean pixel, around the first conv's input */
+    int z_exact; /* the fc is kept float: it reads the exact band means */
 
-    struct s8_layer conv0, fc;
-    struct s8_dense layers[MAX_LAYERS];
-    struct s8_trans trans[N_BLOCKS - 1];
-    const int8_t *n5_lo, *n5_hi;
-    const float *n5_deq;        /* [2][1024]: z = A[c]*zq + B[c] */
-    /* --keep-float fc: a float FC on the exact z, weights float (fc_wf) or int8-stored with a
-     * scale per row (fc_w8, fc_ws); fc_bf its float bias. NULL: the int8 fc */
-    const float *fc_wf, *fc_ws, *fc_bf;
-    const int8_t *fc_w8;
+    struct s8_node nodes[PL_GRAPH_MAX_NODES];
     pl_heads heads; /* model/heads.h; heads.d1_w is d1_w */
     float *d1_w;    /* dequantised at load from s8 + per-row scales */
     int32_t *qbuf;
@@ -98,11 +92,11 @@ struct pl_s8 {
     uint8_t *arena;
     uint8_t *a1, *a2;
     size_t arena_bytes;
-    int8_t *buf_a, *buf_b, *t, *zq, *hq;
+    int8_t *tensor[PL_GRAPH_MAX_TENSORS]; /* each graph tensor's int8 buffer (NHWC) */
+    int8_t *t;             /* slot T: bottlenecks, pooled inputs (and fin before the stem) */
     float *tf_in, *tf_out; /* kept-float transitions: pooled input, conv output (or NULL) */
     size_t tf_in_n, tf_out_n;
-    float *fin, *z, *h;
-    int z_len;
+    float *fin, *z, *h; /* the resized input; the float latent and fc output */
 
     pl_layer_observer observer;
     void *observer_ctx;
@@ -116,6 +110,11 @@ struct pl_s8 {
 static size_t max_sz(size_t a, size_t b)
 {
     return a > b ? a : b;
+}
+
+static size_t up64(size_t n)
+{
+    return (n + 63) & ~(size_t)63;
 }
 
 struct binder {
@@ -143,21 +142,21 @@ static int bind_act(struct binder *b, const char *name, int c, int relu, struct 
     for (int i = 0; i < c; i++) {
         if (!(sc[i] > 0) || sc[i] > 1e9f)
             return b->t.rc = pl_error(PL_E_MODEL,
-                                    "%s: tensor '%s': channel %d scale %g, expected a "
-                                    "finite value in (0, 1e9]",
-                                    path, name, i, (double)sc[i]);
+                                      "%s: tensor '%s': channel %d scale %g, expected a "
+                                      "finite value in (0, 1e9]",
+                                      path, name, i, (double)sc[i]);
         if (zp && (!(zp[i] >= -32767 && zp[i] <= 32767) || zp[i] != floorf(zp[i])))
             return b->t.rc = pl_error(PL_E_MODEL,
-                                    "%s: tensor '%s': channel %d zero point %g, "
-                                    "expected an integer in [-32767, 32767]",
-                                    path, name, i, (double)zp[i]);
+                                      "%s: tensor '%s': channel %d zero point %g, "
+                                      "expected an integer in [-32767, 32767]",
+                                      path, name, i, (double)zp[i]);
     }
     if (t->zero_point < -128 || t->zero_point > 127 || (relu && t->zero_point != -128))
         return b->t.rc = pl_error(PL_E_MODEL,
-                                "%s: tensor '%s': zero point (output offset) %d, "
-                                "expected %s",
-                                path, name, t->zero_point,
-                                relu ? "-128 (a ReLU output)" : "[-128, 127]");
+                                  "%s: tensor '%s': zero point (output offset) %d, "
+                                  "expected %s",
+                                  path, name, t->zero_point,
+                                  relu ? "-128 (a ReLU output)" : "[-128, 127]");
     L->out_scale = sc;
     L->out_zps = zp;
     L->out_zp = t->zero_point;
@@ -174,9 +173,9 @@ static int bind_clamp(struct binder *b, const char *name, int c, const int8_t **
     for (int i = 0; i < c; i++)
         if (d[i] > d[c + i])
             return b->t.rc = pl_error(PL_E_MODEL,
-                                    "%s: tensor '%s': channel %d clamp [%d, %d] has "
-                                    "lower > upper bound",
-                                    b->s->file->path, name, i, d[i], d[c + i]);
+                                      "%s: tensor '%s': channel %d clamp [%d, %d] has "
+                                      "lower > upper bound",
+                                      b->s->file->path, name, i, d[i], d[c + i]);
     *lo = d;
     *hi = d + c;
     return PL_OK;
@@ -210,16 +209,16 @@ static int bind_layer(struct binder *b, const char *prefix, int ndim, const int 
     for (int o = 0; o < out_c; o++) {
         if (!(sc[o] > 0))
             return b->t.rc = pl_error(PL_E_MODEL,
-                                    "%s: tensor '%s.wscale': element %d is %g, "
-                                    "expected a finite scale > 0",
-                                    path, prefix, o, (double)sc[o]);
+                                      "%s: tensor '%s.wscale': element %d is %g, "
+                                      "expected a finite scale > 0",
+                                      path, prefix, o, (double)sc[o]);
         const double r = (double)sc[o] / (double)L->out_scale[o];
         if (pl_quantize_multiplier(r, &L->mult[o], &L->shift[o]) < 0)
             return b->t.rc = pl_error(PL_E_MODEL,
-                                    "%s: layer '%s' output channel %d: requantisation "
-                                    "scale %g (wscale / output scale) out of range, expected "
-                                    "< 2^30",
-                                    path, prefix, o, r);
+                                      "%s: layer '%s' output channel %d: requantisation "
+                                      "scale %g (wscale / output scale) out of range, expected "
+                                      "< 2^30",
+                                      path, prefix, o, r);
     }
     return PL_OK;
 }
@@ -261,30 +260,157 @@ static const float *bind_scales(struct binder *b, const char *name, int n)
     for (int i = 0; sc && i < n; i++)
         if (!(sc[i] > 0) || sc[i] > 1e9f) {
             b->t.rc = pl_error(PL_E_MODEL,
-                             "%s: tensor '%s': element %d is %g, expected a finite scale in "
-                             "(0, 1e9]",
-                             b->s->file->path, name, i, (double)sc[i]);
+                               "%s: tensor '%s': element %d is %g, expected a finite scale in "
+                               "(0, 1e9]",
+                               b->s->file->path, name, i, (double)sc[i]);
             return NULL;
         }
     return sc;
 }
 
+/* A CONV node's int8 layer: its input clamps (a pre-activated input), weights and requantisation;
+ * the first conv reads the input padded by the executor (pad_input) and runs unpadded. */
+static int bind_conv(struct binder *b, const pl_gnode *n, struct s8_node *N)
+{
+    const int i = (int)(N - b->s->nodes);
+    pl_s8 *s = b->s;
+    const pl_graph *g = &s->g;
+    struct s8_layer *L = &N->L;
+    char name[PL_PLM_NAME_MAX];
+    if (n->unit[0]) {
+        snprintf(name, sizeof name, "%s.clamp", n->unit);
+        if (bind_clamp(b, name, n->in_c, &L->lo, &L->hi) < 0) return b->t.rc;
+    }
+    /* a ReLU output is quantised with zero point -128, unless a concatenation's consumers
+     * clamp it anyway (the stem's ReLU: the quantiser keeps its range >= 0) */
+    const int relu = n->relu && n->lands < 0;
+    if (bind_layer(b, n->name, 4, (const int[4]){n->out_c, n->k, n->k, n->in_c}, relu, L) < 0)
+        return b->t.rc;
+    /* the input offset: the u8 input's -128, a ReLU producer's zero point; 0 for clamped inputs,
+     * whose zero points are folded into the bias */
+    int32_t in_zp = 0;
+    const pl_gtensor *in = &g->tensors[n->in];
+    if (n->in == g->input)
+        in_zp = -128;
+    else if (in->block < 0)
+        for (int j = i - 1; j >= 0; j--)
+            if (g->nodes[j].out == n->in) {
+                in_zp = s->nodes[j].L.out_zp;
+                break;
+            }
+    const int pad = n->in == g->input ? 0 : n->pad, ext = 2 * (n->pad - pad);
+    conv_params(L, in_zp, relu, n->stride, pad);
+    const int ih = n->pool2 ? n->out_h : n->in_h, iw = n->pool2 ? n->out_w : n->in_w;
+    L->in = (nn_dims){1, ih + ext, iw + ext, n->in_c};
+    L->filt = (nn_dims){n->out_c, n->k, n->k, n->in_c};
+    L->out = (nn_dims){1, n->out_h, n->out_w, n->out_c};
+    L->in_stride = in->c;
+    L->out_stride = g->tensors[n->out].c;
+    if (check_layer(s, n->name, L, n->k == 1) < 0) return b->t.rc = PL_E_MODEL;
+    return PL_OK;
+}
+
+/* A pooled conv kept float by the quantiser (--keep-float transitionN). */
+static int bind_float_conv(struct binder *b, const pl_gnode *n, struct s8_node *N)
+{
+    pl_s8 *s = b->s;
+    char name[PL_PLM_NAME_MAX];
+    snprintf(name, sizeof name, "%s.weight", n->name);
+    const pl_tensor *w8 = find(b, name, PL_DT_S8, 2, n->out_c, n->in_c, 0, 0);
+    if (!w8) return b->t.rc;
+    N->w8 = w8->data;
+    s->n_params += (int64_t)w8->count;
+    snprintf(name, sizeof name, "%s.wscale", n->name);
+    if (!(N->ws = bind_scales(b, name, n->out_c))) return b->t.rc;
+    snprintf(name, sizeof name, "%s.dequant", n->norm);
+    N->deq = bind_f32(b, name, 2, 2, n->in_c);
+    snprintf(name, sizeof name, "%s.out", n->name);
+    if (bind_act(b, name, n->out_c, 0, &N->L) < 0) return b->t.rc;
+    N->L.out_stride = s->g.tensors[n->out].c;
+    const size_t hwp = (size_t)n->out_h * (size_t)n->out_w;
+    s->tf_in_n = max_sz(s->tf_in_n, hwp * (size_t)n->in_c);
+    s->tf_out_n = max_sz(s->tf_out_n, hwp * (size_t)n->out_c);
+    return PL_OK;
+}
+
+/* The fc: int8, or kept float (--keep-float fc) with float or int8-stored weights. */
+static int bind_fc(struct binder *b, const pl_gnode *n, struct s8_node *N)
+{
+    pl_s8 *s = b->s;
+    const pl_plm *f = s->file;
+    char wn[PL_PLM_NAME_MAX], bn[PL_PLM_NAME_MAX], sn[PL_PLM_NAME_MAX];
+    snprintf(wn, sizeof wn, "%s.weight", n->name);
+    snprintf(bn, sizeof bn, "%s.bias", n->name);
+    snprintf(sn, sizeof sn, "%s.wscale", n->name);
+    const pl_tensor *fw = pl_plm_tensor(f, wn), *fbias = pl_plm_tensor(f, bn);
+    if (fw && fw->dtype == PL_DT_F32) { /* kept float */
+        N->wf = bind_f32(b, wn, 2, n->out_c, n->in_c);
+        N->bf = bind_f32(b, bn, 1, n->out_c, 0);
+    } else if (fbias && fbias->dtype == PL_DT_F32) { /* the same, weights stored int8 */
+        const pl_tensor *w8 = find(b, wn, PL_DT_S8, 2, n->out_c, n->in_c, 0, 0);
+        if (!w8) return b->t.rc;
+        N->w8 = w8->data;
+        s->n_params += (int64_t)w8->count;
+        if (!(N->ws = bind_scales(b, sn, n->out_c))) return b->t.rc;
+        N->bf = bind_f32(b, bn, 1, n->out_c, 0);
+    } else {
+        struct s8_layer *F = &N->L;
+        if (bind_layer(b, n->name, 2, (const int[4]){n->out_c, n->in_c, 0, 0}, n->relu, F) < 0)
+            return b->t.rc;
+        conv_params(F, 0, n->relu, 1, 0);
+        F->in = (nn_dims){1, 1, 1, n->in_c};
+        F->filt = (nn_dims){n->out_c, 1, 1, n->in_c};
+        F->out = (nn_dims){1, 1, 1, n->out_c};
+        const nn_fc_s8_params fp = {0, 0, F->out_zp, F->out_zp, 127, 1};
+        int rc = nn_fc_s8_check(&fp, 1, n->in_c, n->in_c, n->out_c, n->out_c);
+        if (rc == PL_OK) rc = nn_quant_s8_check(F->mult, F->shift, n->out_c);
+        if (rc < 0) return b->t.rc = pl_error_prefix(rc, "%s: layer '%s'", f->path, n->name);
+    }
+    s->z_exact = N->bf != NULL;
+    return b->t.rc;
+}
+
+/* The heads: float, but for the distance head's first layer, stored s8 with a scale per row and
+ * dequantised here. */
+static int bind_heads(struct binder *b, const pl_gnode *n)
+{
+    pl_s8 *s = b->s;
+    const pl_net_shape *sh = &s->g.shape;
+    const int N = sh->n_lights, zl = n->in_c, dh = sh->dist_hidden, dd = zl + 3 * N;
+    s->heads = (pl_heads){.n_lights = N, .fc_n = sh->fc_n, .dist_hidden = dh, .z_len = zl};
+    pl_heads_bind(&b->t, &s->heads);
+    const pl_tensor *d1 = find(b, "head_dist.fc1.weight", PL_DT_S8, 2, dh, dd, 0, 0);
+    const float *d1s = bind_scales(b, "head_dist.fc1.wscale", dh);
+    pl_heads_bind_dist(&b->t, &s->heads);
+    if (b->t.rc < 0) return b->t.rc;
+    s->n_params += (int64_t)d1->count;
+    s->d1_w = malloc((size_t)dh * (size_t)dd * sizeof(float));
+    if (!s->d1_w) return b->t.rc = pl_error(PL_E_NOMEM, "out of memory");
+    s->heads.d1_w = s->d1_w;
+    const int8_t *d1q = d1->data;
+    for (int o = 0; o < dh; o++)
+        for (int i = 0; i < dd; i++)
+            s->d1_w[(size_t)o * dd + i] = d1s[o] * (float)d1q[(size_t)o * dd + i];
+    return PL_OK;
+}
+
+/* Binds every node's tensors (model/graph.h) in graph order. */
 static int bind_all(pl_s8 *s)
 {
     struct binder bb = {.t = {.file = s->file, .missing_note = " (int8 model)"}, .s = s};
     struct binder *b = &bb;
-    const pl_net_shape *sh = &s->sh;
+    const pl_graph *g = &s->g;
     const pl_plm *f = s->file;
-    char name[PL_PLM_NAME_MAX], pre[48];
-    const int H = sh->in_h, W = sh->in_w, N = sh->n_lights;
+    char name[PL_PLM_NAME_MAX];
 
-    size_t chans = 64 + (size_t)MAX_LAYERS * (BOTTLENECK + GROWTH) + 2048 + (size_t)sh->fc_n;
-    b->q_cap = 2 * chans;
+    for (int i = 0; i < g->n_nodes; i++)
+        if (g->nodes[i].op == PL_NODE_CONV || g->nodes[i].op == PL_NODE_FC)
+            b->q_cap += 2 * (size_t)g->nodes[i].out_c;
     s->qbuf = calloc(b->q_cap, sizeof *s->qbuf);
     if (!s->qbuf) return pl_error(PL_E_NOMEM, "out of memory");
 
-    /* stem: the u8 input with its pad pixel, conv0 + ReLU, max pool into block 1 */
-    const pl_tensor *in = find(b, "input", PL_DT_U8, 1, 3, 0, 0, 0);
+    /* the u8 input and its pad pixel */
+    const pl_tensor *in = find(b, g->tensors[g->input].name, PL_DT_U8, 1, 3, 0, 0, 0);
     if (!in) return b->t.rc;
     if (!(in->scale > 0) || in->zero_point != 0)
         return pl_error(PL_E_MODEL,
@@ -292,192 +418,64 @@ static int bind_all(pl_s8 *s)
                         "scale > 0 and zero point 0 (u8 pixels)",
                         f->path, (double)in->scale, in->zero_point);
     memcpy(s->pad_px, in->data, 3);
-    struct s8_layer *c0 = &s->conv0;
-    if (bind_layer(b, "conv0", 4, (const int[4]){64, 7, 7, 3}, 0, c0) < 0) return b->t.rc;
-    conv_params(c0, -128, 0, 2, 0); /* ReLU: the quantiser keeps conv0's range >= 0 */
-    c0->in = (nn_dims){1, H + 2 * STEM_PAD, W + 2 * STEM_PAD, 3};
-    c0->filt = (nn_dims){64, 7, 7, 3};
-    c0->out = (nn_dims){1, H / 2, W / 2, 64};
-    c0->in_stride = 3;
-    c0->out_stride = 64;
-    if (check_layer(s, "conv0", c0, 0) < 0) return PL_E_MODEL;
 
-    int h = H / 4, w = W / 4, li = 0;
-    for (int blk = 0; blk < N_BLOCKS; blk++) {
-        const int ctot = block_c0[blk] + GROWTH * block_layers[blk];
-        for (int l = 0; l < block_layers[blk]; l++, li++) {
-            struct s8_dense *D = &s->layers[li];
-            D->cin = block_c0[blk] + GROWTH * l;
-            snprintf(pre, sizeof pre, "denseblock%d.denselayer%d", blk + 1, l + 1);
-            snprintf(name, sizeof name, "%s.clamp", pre);
-            if (bind_clamp(b, name, D->cin, &D->c1.lo, &D->c1.hi) < 0) return b->t.rc;
-            snprintf(name, sizeof name, "%s.conv1", pre);
-            if (bind_layer(b, name, 4, (const int[4]){BOTTLENECK, 1, 1, D->cin}, 1, &D->c1) < 0)
-                return b->t.rc;
-            conv_params(&D->c1, 0, 1, 1, 0);
-            D->c1.in = (nn_dims){1, h, w, D->cin};
-            D->c1.filt = (nn_dims){BOTTLENECK, 1, 1, D->cin};
-            D->c1.out = (nn_dims){1, h, w, BOTTLENECK};
-            D->c1.in_stride = ctot;
-            D->c1.out_stride = BOTTLENECK;
-            if (check_layer(s, name, &D->c1, 1) < 0) return PL_E_MODEL;
-            snprintf(name, sizeof name, "%s.conv2", pre);
-            if (bind_layer(b, name, 4, (const int[4]){GROWTH, 3, 3, BOTTLENECK}, 0, &D->c2) < 0)
-                return b->t.rc;
-            conv_params(&D->c2, D->c1.out_zp, 0, 1, 1);
-            D->c2.in = (nn_dims){1, h, w, BOTTLENECK};
-            D->c2.filt = (nn_dims){GROWTH, 3, 3, BOTTLENECK};
-            D->c2.out = (nn_dims){1, h, w, GROWTH};
-            D->c2.in_stride = BOTTLENECK;
-            D->c2.out_stride = ctot;
-            if (check_layer(s, name, &D->c2, 0) < 0) return PL_E_MODEL;
+    for (int i = 0; i < g->n_nodes; i++) {
+        const pl_gnode *n = &g->nodes[i];
+        struct s8_node *N = &s->nodes[i];
+        if (n->in == g->input) s->in_pad = n->pad;
+        int rc = PL_OK;
+        switch (n->op) {
+        case PL_NODE_CONV: {
+            snprintf(name, sizeof name, "%s.weight", n->name);
+            const pl_tensor *w = pl_plm_tensor(f, name);
+            rc = n->pool2 && w && w->ndim == 2 ? bind_float_conv(b, n, N) : bind_conv(b, n, N);
+            break;
         }
-        if (blk < N_BLOCKS - 1) {
-            struct s8_trans *T = &s->trans[blk];
-            T->cin = ctot;
-            const int cnext = block_c0[blk + 1] + GROWTH * block_layers[blk + 1];
-            snprintf(name, sizeof name, "transition%d.conv.weight", blk + 1);
-            const pl_tensor *tw = pl_plm_tensor(f, name);
-            T->conv.in = (nn_dims){1, h / 2, w / 2, ctot};
-            T->conv.filt = (nn_dims){ctot / 2, 1, 1, ctot};
-            T->conv.out = (nn_dims){1, h / 2, w / 2, ctot / 2};
-            T->conv.in_stride = ctot;
-            T->conv.out_stride = cnext;
-            if (tw && tw->ndim == 2) { /* kept float (--keep-float transitionN) */
-                const pl_tensor *w8 = find(b, name, PL_DT_S8, 2, ctot / 2, ctot, 0, 0);
-                if (!w8) return b->t.rc;
-                T->w8 = w8->data;
-                b->s->n_params += (int64_t)w8->count;
-                snprintf(name, sizeof name, "transition%d.conv.wscale", blk + 1);
-                if (!(T->ws = bind_scales(b, name, ctot / 2))) return b->t.rc;
-                snprintf(name, sizeof name, "transition%d.norm.dequant", blk + 1);
-                T->deq = bind_f32(b, name, 2, 2, ctot);
-                snprintf(name, sizeof name, "transition%d.conv.out", blk + 1);
-                if (bind_act(b, name, ctot / 2, 0, &T->conv) < 0) return b->t.rc;
-                const size_t hwp = (size_t)(h / 2) * (size_t)(w / 2);
-                s->tf_in_n = max_sz(s->tf_in_n, hwp * (size_t)ctot);
-                s->tf_out_n = max_sz(s->tf_out_n, hwp * (size_t)(ctot / 2));
-            } else {
-                snprintf(name, sizeof name, "transition%d.clamp", blk + 1);
-                if (bind_clamp(b, name, ctot, &T->lo, &T->hi) < 0) return b->t.rc;
-                snprintf(name, sizeof name, "transition%d.conv", blk + 1);
-                if (bind_layer(b, name, 4, (const int[4]){ctot / 2, 1, 1, ctot}, 0, &T->conv) < 0)
-                    return b->t.rc;
-                conv_params(&T->conv, 0, 0, 1, 0);
-                if (check_layer(s, name, &T->conv, 1) < 0) return PL_E_MODEL;
-            }
-            h /= 2;
-            w /= 2;
+        case PL_NODE_BANDS:
+            snprintf(name, sizeof name, "%s.clamp", n->unit);
+            if ((rc = bind_clamp(b, name, n->in_c, &N->L.lo, &N->L.hi)) < 0) break;
+            snprintf(name, sizeof name, "%s.dequant", n->norm);
+            N->deq = bind_f32(b, name, 2, 2, n->in_c);
+            break;
+        case PL_NODE_FC:
+            rc = bind_fc(b, n, N);
+            break;
+        case PL_NODE_HEADS:
+            rc = bind_heads(b, n);
+            break;
+        case PL_NODE_MAXPOOL:
+            break;
         }
+        if (rc < 0 || b->t.rc < 0) return b->t.rc < 0 ? b->t.rc : rc;
     }
-    if (bind_clamp(b, "norm5.clamp", FEATURES, &s->n5_lo, &s->n5_hi) < 0) return b->t.rc;
-    s->n5_deq = bind_f32(b, "norm5.dequant", 2, 2, FEATURES);
-    const int zl = FEATURES * sh->bands;
-    const pl_tensor *fw = pl_plm_tensor(f, "fc.weight");
-    const pl_tensor *fbias = pl_plm_tensor(f, "fc.bias");
-    if (fw && fw->dtype == PL_DT_F32) { /* kept float by the quantiser (--keep-float fc) */
-        s->fc_wf = bind_f32(b, "fc.weight", 2, sh->fc_n, zl);
-        s->fc_bf = bind_f32(b, "fc.bias", 1, sh->fc_n, 0);
-    } else if (fbias && fbias->dtype == PL_DT_F32) { /* the same, weights stored int8 */
-        const pl_tensor *w8 = find(b, "fc.weight", PL_DT_S8, 2, sh->fc_n, zl, 0, 0);
-        if (!w8) return b->t.rc;
-        s->fc_w8 = w8->data;
-        s->n_params += (int64_t)w8->count;
-        if (!(s->fc_ws = bind_scales(b, "fc.wscale", sh->fc_n))) return b->t.rc;
-        s->fc_bf = bind_f32(b, "fc.bias", 1, sh->fc_n, 0);
-    } else {
-        struct s8_layer *F = &s->fc;
-        if (bind_layer(b, "fc", 2, (const int[4]){sh->fc_n, zl, 0, 0}, 1, F) < 0) return b->t.rc;
-        conv_params(F, 0, 1, 1, 0);
-        F->in = (nn_dims){1, 1, 1, zl};
-        F->filt = (nn_dims){sh->fc_n, 1, 1, zl};
-        F->out = (nn_dims){1, 1, 1, sh->fc_n};
-        const nn_fc_s8_params fp = {0, 0, F->out_zp, F->out_zp, 127, 1};
-        int rc = nn_fc_s8_check(&fp, 1, zl, zl, sh->fc_n, sh->fc_n);
-        if (rc == PL_OK) rc = nn_quant_s8_check(F->mult, F->shift, sh->fc_n);
-        if (rc < 0) return pl_error_prefix(rc, "%s: layer 'fc'", f->path);
-    }
-    const int dh = sh->dist_hidden, dd = zl + 3 * N;
-    s->heads = (pl_heads){.n_lights = N, .fc_n = sh->fc_n, .dist_hidden = dh, .z_len = zl};
-    pl_heads_bind(&b->t, &s->heads);
-    const pl_tensor *d1 = find(b, "head_dist.fc1.weight", PL_DT_S8, 2, dh, dd, 0, 0);
-    const float *d1s = bind_f32(b, "head_dist.fc1.wscale", 1, dh, 0);
-    pl_heads_bind_dist(&b->t, &s->heads);
-    if (b->t.rc < 0) return b->t.rc;
-    s->n_params += b->t.params + (int64_t)d1->count;
-    s->d1_w = malloc((size_t)dh * (size_t)dd * sizeof(float));
-    if (!s->d1_w) return pl_error(PL_E_NOMEM, "out of memory");
-    s->heads.d1_w = s->d1_w;
-    const int8_t *d1q = d1->data;
-    for (int o = 0; o < dh; o++) {
-        if (!(d1s[o] > 0))
-            return pl_error(PL_E_MODEL,
-                            "%s: tensor 'head_dist.fc1.wscale': element %d is %g, "
-                            "expected a finite scale > 0",
-                            f->path, o, (double)d1s[o]);
-        for (int i = 0; i < dd; i++)
-            s->d1_w[(size_t)o * dd + i] = d1s[o] * (float)d1q[(size_t)o * dd + i];
-    }
-    if ((uint32_t)b->t.used != f->n_tensors) {
-        for (uint32_t i = 0; i < f->n_tensors; i++) {
-            const char *n = f->tensors[i].name;
-            int known = !strcmp(n, "input") || !strncmp(n, "conv0.", 6) ||
-                        !strncmp(n, "denseblock", 10) || !strncmp(n, "transition", 10) ||
-                        !strncmp(n, "norm5.", 6) || !strncmp(n, "fc.", 3) ||
-                        !strncmp(n, "head_", 5);
-            if (!known)
-                return pl_error(PL_E_MODEL, "%s: unexpected tensor '%s' for an int8 %s", f->path, n,
-                                PL_ARCH_NAME);
-        }
-        return pl_error(PL_E_MODEL, "%s: %u tensors, the int8 architecture uses %d", f->path,
-                        f->n_tensors, b->t.used);
-    }
-    return PL_OK;
+    s->n_params += b->t.params;
+    return pl_bind_finish(&b->t, "an int8 " PL_ARCH_NAME);
 }
 
-/* Every int8 conv / fc in forward order, each with how its A is built: a_rows for the stem (3
- * channels: the 7 horizontal taps folded into 21 channels), a_pack for the 1x1s and the fc,
- * a_pad for the 3x3s. */
-static int all_layers(pl_s8 *s, struct s8_layer **L)
-{
-    int n = 0;
-    L[n] = &s->conv0;
-    L[n++]->a_kind = PL_S8_A_ROWS;
-    int li = 0;
-    for (int blk = 0; blk < N_BLOCKS; blk++) {
-        for (int l = 0; l < block_layers[blk]; l++, li++) {
-            L[n] = &s->layers[li].c1;
-            L[n++]->a_kind = PL_S8_A_PACK;
-            L[n] = &s->layers[li].c2;
-            L[n++]->a_kind = PL_S8_A_PAD;
-        }
-        if (blk < N_BLOCKS - 1 && !s->trans[blk].w8) {
-            L[n] = &s->trans[blk].conv;
-            L[n++]->a_kind = PL_S8_A_PACK;
-        }
-    }
-    if (!s->fc_bf) {
-        L[n] = &s->fc;
-        L[n++]->a_kind = PL_S8_A_PACK;
-    }
-    return n;
-}
-
-/* SIMD tables: every conv's weights packed once for the path (kernels/kernels_s8.h), into one
- * allocation; the sizes of the A buffers the arena needs. */
+/* SIMD tables: every int8 conv / fc's weights packed once for the path (kernels/kernels_s8.h), in
+ * graph order into one allocation, each with how its A is built: a_rows for the stem (3
+ * channels: the row taps folded into channels), a_pack for the 1x1s and the fc, a_pad for the
+ * k x k ones; the sizes of the A buffers the arena needs. A 1x1 followed by the k x k conv that
+ * reads its output writes that conv's A (into_next). */
 static int pack_all(pl_s8 *s)
 {
     if (pl_kernels_get(&s->k) < 0) return pl_error_prefix(PL_E_UNSUPPORTED, "%s", s->file->path);
     if (!s->k->s8.packed) return PL_OK;
-    enum { MAXL = 1 + 2 * MAX_LAYERS + N_BLOCKS };
-    struct s8_layer *L[MAXL];
-    const int n = all_layers(s, L);
+    const pl_graph *g = &s->g;
+    struct s8_layer *L[PL_GRAPH_MAX_NODES];
+    int n = 0;
+    for (int i = 0; i < g->n_nodes; i++) {
+        const pl_gnode *d = &g->nodes[i];
+        struct s8_node *N = &s->nodes[i];
+        if ((d->op != PL_NODE_CONV && d->op != PL_NODE_FC) || N->w8 || N->wf) continue;
+        N->L.a_kind = d->k == 1 ? PL_S8_A_PACK : d->in == g->input ? PL_S8_A_ROWS : PL_S8_A_PAD;
+        L[n++] = &N->L;
+    }
     size_t total = 0;
     for (int i = 0; i < n; i++) {
         const nn_per_channel_quant q = {L[i]->mult, L[i]->shift};
-        pl_s8_conv_init(&L[i]->pc, &L[i]->p, &q, &L[i]->in, &L[i]->filt, &L[i]->out,
-                        L[i]->a_kind);
-        total += (pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout) + 63) & ~(size_t)63;
+        pl_s8_conv_init(&L[i]->pc, &L[i]->p, &q, &L[i]->in, &L[i]->filt, &L[i]->out, L[i]->a_kind);
+        total += up64(pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout));
         size_t *a = L[i]->a_kind == PL_S8_A_PACK ? &s->a1_bytes : &s->a2_bytes;
         *a = max_sz(*a, pl_s8_conv_a_size(&L[i]->pc));
     }
@@ -488,49 +486,58 @@ static int pack_all(pl_s8 *s)
     uint8_t *p = s->packed;
     for (int i = 0; i < n; i++) {
         s->k->s8.pack(&L[i]->pc, L[i]->w, L[i]->bias, p);
-        p += (pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout) + 63) & ~(size_t)63;
+        p += up64(pl_s8_conv_packed_size(&L[i]->pc, s->k->s8.layout));
     }
-    for (int i = 0; i < MAX_LAYERS; i++) /* a dense layer's 1x1 writes the 3x3's A (forward()) */
-        pl_s8_conv_write_a(&s->layers[i].c1.pc, s->layers[i].c2.pc.a_w);
+    const pl_gnode *last = NULL; /* the last k x k conv whose A its producer wrote */
+    for (int i = 0; i + 1 < g->n_nodes; i++) {
+        const pl_gnode *d = &g->nodes[i], *nx = &g->nodes[i + 1];
+        struct s8_node *N = &s->nodes[i];
+        if (d->op != PL_NODE_CONV || N->L.a_kind != PL_S8_A_PACK || d->pool2 ||
+            nx->op != PL_NODE_CONV || s->nodes[i + 1].L.a_kind != PL_S8_A_PAD || nx->in != d->out ||
+            nx->in_c != d->out_c)
+            continue;
+        N->into_next = 1;
+        N->fill_pad = !last || last->in_h != nx->in_h || last->in_w != nx->in_w;
+        pl_s8_conv_write_a(&N->L.pc, s->nodes[i + 1].L.pc.a_w);
+        last = nx;
+    }
     return PL_OK;
-}
-
-static size_t up64(size_t n)
-{
-    return (n + 63) & ~(size_t)63;
 }
 
 static int plan_arena(pl_s8 *s)
 {
-    const size_t H = (size_t)s->sh.in_h, W = (size_t)s->sh.in_w, N = (size_t)s->sh.n_lights;
-    const size_t hw1 = (H / 4) * (W / 4), hw2 = hw1 / 4, hw3 = hw2 / 4, hw4 = hw3 / 4;
-    const size_t stem = 64 * (H / 2) * (W / 2);
-    const size_t inpad = 3 * (H + 2 * STEM_PAD) * (W + 2 * STEM_PAD);
-    const size_t a = max_sz(stem, max_sz(512 * hw2, 1024 * hw4));
-    const size_t b = max_sz(inpad, max_sz(256 * hw1, 1024 * hw3));
-    const size_t t =
-        max_sz(3 * H * W * sizeof(float),
-               max_sz(BOTTLENECK * hw1, max_sz(256 * hw2, max_sz(512 * hw3, 1024 * hw4))));
-    s->z_len = FEATURES * s->sh.bands;
-    const size_t zl = (size_t)s->z_len, fc = (size_t)s->sh.fc_n;
-    const size_t floats = zl + fc + 3 * N + N + 3 * N + 3 + zl + 3 * N +
-                          (size_t)s->sh.dist_hidden + N + s->tf_in_n + s->tf_out_n;
+    const pl_graph *g = &s->g;
+    const pl_net_shape *sh = &g->shape;
+    const size_t H = (size_t)sh->in_h, W = (size_t)sh->in_w, N = (size_t)sh->n_lights;
+    const size_t inpad = 3 * (H + 2 * (size_t)s->in_pad) * (W + 2 * (size_t)s->in_pad);
+    const size_t a = pl_graph_slot_size(g, PL_SLOT_A);
+    const size_t b = max_sz(inpad, pl_graph_slot_size(g, PL_SLOT_B));
+    size_t t = max_sz(3 * H * W * sizeof(float), pl_graph_slot_size(g, PL_SLOT_T));
+    for (int i = 0; i < g->n_nodes; i++) /* pooled inputs */
+        if (g->nodes[i].pool2)
+            t = max_sz(t, (size_t)g->nodes[i].in_c * g->nodes[i].out_h * g->nodes[i].out_w);
+    const size_t zl = pl_graph_tensor_size(g, g->z), fc = pl_graph_tensor_size(g, g->h);
+    const size_t floats = zl + fc + 3 * N + N + 3 * N + 3 + zl + 3 * N + (size_t)sh->dist_hidden +
+                          N + s->tf_in_n + s->tf_out_n;
     const size_t total = up64(a) + up64(b) + up64(t) + up64(zl) + up64(fc) +
                          up64(floats * sizeof(float)) + up64(s->a1_bytes) + up64(s->a2_bytes);
     s->arena = aligned_alloc(64, total);
     if (!s->arena) return pl_error(PL_E_NOMEM, "cannot allocate the %zu-byte arena", total);
     s->arena_bytes = total;
     uint8_t *p = s->arena;
-    s->buf_a = (int8_t *)p;
+    int8_t *slot[PL_SLOT_VEC];
+    slot[PL_SLOT_A] = (int8_t *)p;
     p += up64(a);
-    s->buf_b = (int8_t *)p;
+    slot[PL_SLOT_B] = (int8_t *)p;
     p += up64(b);
-    s->t = (int8_t *)p;
+    slot[PL_SLOT_T] = s->t = (int8_t *)p;
     s->fin = (float *)(void *)p;
     p += up64(t);
-    s->zq = (int8_t *)p;
+    for (int i = 0; i < g->n_tensors; i++)
+        if (g->tensors[i].slot != PL_SLOT_VEC) s->tensor[i] = slot[g->tensors[i].slot];
+    s->tensor[g->z] = (int8_t *)p;
     p += up64(zl);
-    s->hq = (int8_t *)p;
+    s->tensor[g->h] = (int8_t *)p;
     p += up64(fc);
     float *q = (float *)(void *)p;
     s->z = q;
@@ -556,8 +563,8 @@ int pl_s8_load(const pl_plm *file, const pl_net_shape *shape, pl_s8 **out)
     pl_s8 *s = calloc(1, sizeof *s);
     if (!s) return pl_error(PL_E_NOMEM, "out of memory");
     s->file = file;
-    s->sh = *shape;
-    int rc = bind_all(s);
+    int rc = pl_graph_build(shape, &s->g);
+    if (rc == PL_OK) rc = bind_all(s);
     if (rc == PL_OK) rc = pack_all(s);
     if (rc == PL_OK) rc = plan_arena(s);
     if (rc < 0) {
@@ -593,12 +600,14 @@ int64_t pl_s8_params(const pl_s8 *s)
 int pl_s8_set_observer(pl_s8 *s, pl_layer_observer fn, void *ctx)
 {
     if (fn && !s->obs_buf) {
-        const size_t H = (size_t)s->sh.in_h, W = (size_t)s->sh.in_w;
-        s->obs_floats = max_sz(64 * (H / 2) * (W / 2),
-                               max_sz(BOTTLENECK * (H / 4) * (W / 4),
-                                      max_sz((size_t)FEATURES * 3, (size_t)s->sh.fc_n)));
+        size_t chans = 0;
+        for (int i = 0; i < s->g.n_nodes; i++) {
+            const pl_gnode *n = &s->g.nodes[i];
+            s->obs_floats = max_sz(s->obs_floats, (size_t)n->out_c * n->out_h * n->out_w);
+            chans = max_sz(chans, (size_t)n->out_c);
+        }
         s->obs_buf = malloc(s->obs_floats * sizeof(float));
-        s->obs_floor = malloc(FEATURES * sizeof(float));
+        s->obs_floor = malloc(chans * sizeof(float));
         if (!s->obs_buf || !s->obs_floor)
             return pl_error(PL_E_NOMEM, "out of memory (observer buffer)");
     }
@@ -612,10 +621,15 @@ void pl_s8_set_profile(pl_s8 *s, pl_profile *p)
     s->prof = p;
 }
 
+const pl_graph *pl_s8_graph(const pl_s8 *s)
+{
+    return &s->g;
+}
+
 void pl_s8_latent(const pl_s8 *s, const float **z, int *n)
 {
     *z = s->z;
-    *n = s->z_len;
+    *n = s->g.tensors[s->g.z].c;
 }
 
 /* ---- execution ----------------------------------------------------------------------------- */
@@ -629,10 +643,10 @@ enum s8_op {
     S8_CLAMP,
     S8_FC,
     S8_FC_F32,
-    S8_A_PACK, /* packed path: A from a 1x1 / fc input (pixels) */
-    S8_A_PAD,  /* packed path: A from a k x k input (rows) */
-    S8_A_ROWS, /* packed path: A from a k x k input with the row taps folded (rows) */
-    S8_RUN,    /* packed path: the convolution (pixels, or channels when j->by_channel) */
+    S8_A_PACK,    /* packed path: A from a 1x1 / fc input (pixels) */
+    S8_A_PAD,     /* packed path: A from a k x k input (rows) */
+    S8_A_ROWS,    /* packed path: A from a k x k input with the row taps folded (rows) */
+    S8_RUN,       /* packed path: the convolution (pixels, or channels when j->by_channel) */
     S8_MAXPOOL_P, /* packed path: pools and clamp over pixels */
     S8_AVGPOOL_P,
     S8_CLAMP_P,
@@ -682,8 +696,8 @@ static void run_s8(void *ctx, int begin, int end)
         return;
     }
     if (j->op == S8_AVGPOOL_P) {
-        j->k->avgpool(j->pool, j->in_dims, j->in, j->in_stride, j->lo, j->hi, j->out_dims,
-                      j->a_out, j->out_stride, PL_S8_A_XOR, begin, end);
+        j->k->avgpool(j->pool, j->in_dims, j->in, j->in_stride, j->lo, j->hi, j->out_dims, j->a_out,
+                      j->out_stride, PL_S8_A_XOR, begin, end);
         if (j->fuse) j->k->run(&L->pc, j->a_out, j->out, L->out_stride, begin, end, 0, L->pc.out_c);
         return;
     }
@@ -698,11 +712,10 @@ static void run_s8(void *ctx, int begin, int end)
             k->a_pack(&L->in, j->in, L->in_stride, j->lo, j->hi, L->p.stride_h, L->p.stride_w,
                       &L->out, j->a_out, c->cs, begin, end);
             if (j->fuse) k->run(c, j->a_out, j->out, L->out_stride, begin, end, 0, c->out_c);
-        }
-        else if (j->op == S8_A_ROWS)
+        } else if (j->op == S8_A_ROWS)
             k->a_rows(&L->in, j->in, L->in_stride, L->p.pad_h, L->p.pad_w,
-                      pl_s8_pad_u(L->p.input_offset), L->filt.w, L->p.stride_w,
-                      L->p.dilation_w, c->a_h, c->a_w, j->a_out, c->cs, begin, end);
+                      pl_s8_pad_u(L->p.input_offset), L->filt.w, L->p.stride_w, L->p.dilation_w,
+                      c->a_h, c->a_w, j->a_out, c->cs, begin, end);
         else if (j->op == S8_A_PAD)
             k->a_pad(&L->in, j->in, L->in_stride, L->p.pad_h, L->p.pad_w,
                      pl_s8_pad_u(L->p.input_offset), c->a_h, c->a_w, j->a_out, c->cs, begin, end);
@@ -751,8 +764,8 @@ static void run_packed(pl_pool *pool, const pl_kernels_s8 *k, const struct s8_la
 /* The packed path: build A (clamped when lo), then the convolution, split over output pixels
  * (over channels for the one-pixel fc). Each output value depends only on its pixel and channel,
  * so the split never changes a bit. */
-static void layer_packed(const pl_s8 *s, pl_pool *pool, const struct s8_layer *L,
-                         const int8_t *in, const int8_t *lo, const int8_t *hi, int8_t *out)
+static void layer_packed(const pl_s8 *s, pl_pool *pool, const struct s8_layer *L, const int8_t *in,
+                         const int8_t *lo, const int8_t *hi, int8_t *out)
 {
     const pl_s8_conv *c = &L->pc;
     const int dense = L->a_kind == PL_S8_A_PACK;
@@ -823,10 +836,17 @@ static void heads_fc(void *ctx, const float *in, int n_in, const float *w, const
 }
 
 /* The fc kept float with int8-stored weights: h[o] = relu(ws[o] * (w8[o] . z) + b[o]). */
+struct fc_w8_job {
+    const struct s8_node *N;
+    const float *in;
+    int n_in;
+    float *out;
+};
+
 static void fc_w8_rows(void *ctx, int begin, int end)
 {
-    const pl_s8 *s = ctx;
-    nn_fc_w8_f32__ref(s->z, 1, s->z_len, s->fc_w8, s->fc_ws, s->fc_bf, 1, s->h, 0, begin, end);
+    const struct fc_w8_job *j = ctx;
+    nn_fc_w8_f32__ref(j->in, 1, j->n_in, j->N->w8, j->N->ws, j->N->bf, 1, j->out, 0, begin, end);
 }
 
 /* A transition kept float (--keep-float transitionN): the block buffer's channels through
@@ -835,18 +855,19 @@ static void fc_w8_rows(void *ctx, int begin, int end)
  * grid (over output channels). Each value is one thread's fixed-order sum: the same bits for
  * any thread count and kernel path. */
 struct tf_job {
-    const struct s8_trans *T;
-    const int8_t *in; /* the block buffer, NHWC, pixel stride T->cin */
+    const struct s8_node *T;
+    int c, out_c;     /* the channels in (the block's) and out */
+    const int8_t *in; /* the block buffer, NHWC, pixel stride c */
     int h, w;         /* the block's size, before the pool */
-    float *pooled;    /* [(h/2)*(w/2)][cin] */
-    float *y;         /* [(h/2)*(w/2)][cin/2], the conv's float output */
+    float *pooled;    /* [(h/2)*(w/2)][c] */
+    float *y;         /* [(h/2)*(w/2)][out_c], the conv's float output */
     int8_t *out;      /* the next block's buffer, pixel stride out_stride */
 };
 
 static void tf_pool(void *ctx, int begin, int end)
 {
     const struct tf_job *j = ctx;
-    const int c = j->T->cin, wp = j->w / 2;
+    const int c = j->c, wp = j->w / 2;
     const float *A = j->T->deq, *B = A + c;
     for (int p = begin; p < end; p++) {
         const int y = 2 * (p / wp), x = 2 * (p % wp);
@@ -868,11 +889,11 @@ static void tf_pool(void *ctx, int begin, int end)
 static void tf_conv(void *ctx, int begin, int end)
 {
     const struct tf_job *j = ctx;
-    const struct s8_layer *L = &j->T->conv;
-    const int c = j->T->cin, np = (j->h / 2) * (j->w / 2);
-    nn_fc_w8_f32__ref(j->pooled, np, c, j->T->w8, j->T->ws, NULL, 0, j->y, c / 2, begin, end);
+    const struct s8_layer *L = &j->T->L;
+    const int c = j->c, np = (j->h / 2) * (j->w / 2);
+    nn_fc_w8_f32__ref(j->pooled, np, c, j->T->w8, j->T->ws, NULL, 0, j->y, j->out_c, begin, end);
     for (int p = 0; p < np; p++) {
-        const float *y = j->y + (size_t)p * (c / 2);
+        const float *y = j->y + (size_t)p * j->out_c;
         for (int o = begin; o < end; o++) {
             float q = rintf(y[o] / L->out_scale[o]) + L->out_zps[o];
             q = q < -128.0f ? -128.0f : q > 127.0f ? 127.0f : q;
@@ -881,191 +902,205 @@ static void tf_conv(void *ctx, int begin, int end)
     }
 }
 
-static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
+/* A CONV node: on the packed path a 1x1 into_next writes the next node's A, which then only
+ * runs; a pooled conv (a transition) clamps, pools and convolves in one pass, or in float when
+ * kept float. */
+static void run_conv(pl_s8 *s, pl_pool *pool, const pl_gnode *n, const struct s8_node *N,
+                     int8_t *in, int8_t *out)
 {
-    const int H = s->sh.in_h, W = s->sh.in_w;
-    char name[64];
-    layer(s, pool, S8_CONV, &s->conv0, s->buf_b, s->buf_a);
-    pl_prof_mark(s->prof, PL_PROF_STEM, &t);
-    observe_s8(s, "conv0", s->buf_a, 64, H / 2, W / 2, 64, &s->conv0);
-
-    int h = H / 4, w = W / 4;
-    int8_t *cur = s->buf_b, *next = s->buf_a;
-    {
-        const nn_pool_s8_params mp = {3, 3, 2, 2, 1, 1, -128, 127};
-        const nn_dims in = {1, H / 2, W / 2, 64}, out = {1, h, w, 64};
-        struct s8_job j = {.op = S8_MAXPOOL,
-                           .pool = &mp,
-                           .in_dims = &in,
-                           .out_dims = &out,
-                           .in = s->buf_a,
-                           .out = cur,
-                           .in_stride = 64,
-                           .out_stride = block_c0[0] + GROWTH * block_layers[0]};
-        if (s->k->s8.packed) {
-            j.op = S8_MAXPOOL_P;
-            j.k = &s->k->s8;
-            pl_pool_for(pool, h * w, run_s8, &j);
-        } else {
-            pl_pool_for(pool, 64, run_s8, &j);
-        }
-    }
-    pl_prof_mark(s->prof, PL_PROF_MAXPOOL, &t);
-    int li = 0;
-    for (int b = 0; b < N_BLOCKS; b++) {
-        const int ctot = block_c0[b] + GROWTH * block_layers[b];
-        for (int l = 0; l < block_layers[b]; l++, li++) {
-            const struct s8_dense *D = &s->layers[li];
-            if (s->k->s8.packed) {
-                /* the 1x1 writes its output straight into the interior of the 3x3's padded A
-                 * (kernels/kernels_s8.h; the border, the zero point, is set once per block) */
-                if (l == 0) pl_s8_a_fill_pad(&D->c2.pc, s->a2);
-                layer_packed(s, pool, &D->c1, cur, D->c1.lo, D->c1.hi,
-                             (int8_t *)pl_s8_a_at(&D->c2.pc, s->a2, 1, 1));
-                pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
-                run_packed(pool, &s->k->s8, &D->c2, s->a2, cur + D->cin);
-                pl_prof_mark(s->prof, PL_PROF_DENSE3 + 2 * b, &t);
-                if (s->observer) /* the observer reads the bottleneck as s8 in T */
-                    pl_s8_a_read_s8(&D->c2.pc, s->a2, 1, 1, h, w, s->t);
-            } else {
-                layer(s, pool, S8_CONV1X1_CLAMP, &D->c1, cur, s->t);
-                pl_prof_mark(s->prof, PL_PROF_DENSE1 + 2 * b, &t);
-                layer(s, pool, S8_CONV, &D->c2, s->t, cur + D->cin);
-                pl_prof_mark(s->prof, PL_PROF_DENSE3 + 2 * b, &t);
-            }
-            if (s->observer) {
-                snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
-                observe_s8(s, name, s->t, BOTTLENECK, h, w, BOTTLENECK, &D->c1);
-                snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv2", b + 1, l + 1);
-                observe_s8(s, name, cur + D->cin, GROWTH, h, w, ctot, &D->c2);
-            }
-        }
-        const nn_dims bd = {1, h, w, ctot};
-        if (b < N_BLOCKS - 1) {
-            const struct s8_trans *T = &s->trans[b];
-            const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
-            const nn_dims pd = {1, h / 2, w / 2, ctot};
-            if (T->w8) { /* kept float */
-                struct tf_job tj = {T, cur, h, w, s->tf_in, s->tf_out, next};
-                pl_pool_for(pool, (h / 2) * (w / 2), tf_pool, &tj);
-                pl_pool_for(pool, ctot / 2, tf_conv, &tj);
-            } else if (s->k->s8.packed) {
-                /* clamp + 2x2 average pool straight into the transition conv's A */
-                struct s8_job pj = {.op = S8_AVGPOOL_P,
-                                    .L = &T->conv,
-                                    .out = next,
-                                    .fuse = 1,
-                                    .k = &s->k->s8,
-                                    .pool = &ap,
-                                    .in_dims = &bd,
-                                    .out_dims = &pd,
-                                    .in = cur,
-                                    .in_stride = ctot,
-                                    .lo = T->lo,
-                                    .hi = T->hi,
-                                    .a_out = s->a1,
-                                    .out_stride = T->conv.pc.cs};
-                pl_pool_for(pool, (h / 2) * (w / 2), run_s8, &pj); /* and the 1x1 conv */
-            } else {
-                struct s8_job cj = {.op = S8_CLAMP,
-                                    .in_dims = &bd,
-                                    .out = cur,
-                                    .out_stride = ctot,
-                                    .lo = T->lo,
-                                    .hi = T->hi};
-                pl_pool_for(pool, ctot, run_s8, &cj);
-                struct s8_job pj = {.op = S8_AVGPOOL,
-                                    .pool = &ap,
-                                    .in_dims = &bd,
-                                    .out_dims = &pd,
-                                    .in = cur,
-                                    .out = s->t,
-                                    .in_stride = ctot,
-                                    .out_stride = ctot};
-                pl_pool_for(pool, ctot, run_s8, &pj);
-                layer(s, pool, S8_CONV1X1, &T->conv, s->t, next);
-            }
-            pl_prof_mark(s->prof, PL_PROF_TRANS + b, &t);
-            h /= 2;
-            w /= 2;
-            if (s->observer) {
-                snprintf(name, sizeof name, "transition%d.conv", b + 1);
-                observe_s8(s, name, next, ctot / 2, h, w, T->conv.out_stride, &T->conv);
-            }
-            int8_t *tmp = cur;
-            cur = next;
-            next = tmp;
+    const pl_graph *g = &s->g;
+    const struct s8_layer *L = &N->L;
+    const int packed = s->k->s8.packed;
+    if (n->pool2) {
+        const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
+        const int cs = g->tensors[n->in].c;
+        const nn_dims bd = {1, n->in_h, n->in_w, n->in_c}, pd = {1, n->out_h, n->out_w, n->in_c};
+        if (N->w8) {
+            struct tf_job tj = {N,       n->in_c,  n->out_c,  in, n->in_h,
+                                n->in_w, s->tf_in, s->tf_out, out};
+            pl_pool_for(pool, n->out_h * n->out_w, tf_pool, &tj);
+            pl_pool_for(pool, n->out_c, tf_conv, &tj);
+        } else if (packed) {
+            /* clamp + 2x2 average pool straight into the conv's A, and the 1x1 conv */
+            struct s8_job pj = {.op = S8_AVGPOOL_P,
+                                .L = L,
+                                .out = out,
+                                .fuse = 1,
+                                .k = &s->k->s8,
+                                .pool = &ap,
+                                .in_dims = &bd,
+                                .out_dims = &pd,
+                                .in = in,
+                                .in_stride = cs,
+                                .lo = L->lo,
+                                .hi = L->hi,
+                                .a_out = s->a1,
+                                .out_stride = L->pc.cs};
+            pl_pool_for(pool, n->out_h * n->out_w, run_s8, &pj);
         } else {
             struct s8_job cj = {.op = S8_CLAMP,
                                 .in_dims = &bd,
-                                .out = cur,
-                                .out_stride = ctot,
-                                .lo = s->n5_lo,
-                                .hi = s->n5_hi};
-            if (s->k->s8.packed) {
-                cj.op = S8_CLAMP_P;
-                cj.k = &s->k->s8;
-                pl_pool_for(pool, h * w, run_s8, &cj);
-            } else {
-                pl_pool_for(pool, ctot, run_s8, &cj);
-            }
+                                .out = in,
+                                .out_stride = cs,
+                                .lo = L->lo,
+                                .hi = L->hi};
+            pl_pool_for(pool, n->in_c, run_s8, &cj);
+            struct s8_job pj = {.op = S8_AVGPOOL,
+                                .pool = &ap,
+                                .in_dims = &bd,
+                                .out_dims = &pd,
+                                .in = in,
+                                .out = s->t,
+                                .in_stride = cs,
+                                .out_stride = cs};
+            pl_pool_for(pool, n->in_c, run_s8, &pj);
+            layer(s, pool, S8_CONV1X1, L, s->t, out);
         }
+        return;
     }
-    /* band pooling of the clamped norm5 input (nn_band_pool_f32__ref's bands), rounded half away
-     * from zero like the average pool; then z = A[c]*zq + B[c] for the float heads */
-    const int bands = s->sh.bands;
-    for (int c = 0; c < FEATURES; c++)
+    if (packed && N->into_next) {
+        const struct s8_node *nx = N + 1;
+        const int p = (n + 1)->pad;
+        if (N->fill_pad) pl_s8_a_fill_pad(&nx->L.pc, s->a2);
+        layer_packed(s, pool, L, in, L->lo, L->hi, (int8_t *)pl_s8_a_at(&nx->L.pc, s->a2, p, p));
+        if (s->observer) /* the observer reads the output as s8 in T */
+            pl_s8_a_read_s8(&nx->L.pc, s->a2, p, p, n->out_h, n->out_w, s->t);
+    } else if (packed && N > s->nodes && (N - 1)->into_next) {
+        run_packed(pool, &s->k->s8, L, s->a2, out);
+    } else {
+        const enum s8_op op = n->k > 1 ? S8_CONV : L->lo ? S8_CONV1X1_CLAMP : S8_CONV1X1;
+        layer(s, pool, op, L, in, out);
+    }
+}
+
+/* A BANDS node: the clamp in place, then the band pooling (nn_band_pool_f32__ref's bands) of
+ * the clamped input, rounded half away from zero like the average pool: zq; z = A[c]*mean +
+ * B[c] for the float heads, the mean on the int8 grid unless a float fc reads it exact. */
+static void run_bands(pl_s8 *s, pl_pool *pool, const pl_gnode *n, const struct s8_node *N,
+                      int8_t *in, int8_t *zq)
+{
+    const int cs = s->g.tensors[n->in].c, h = n->in_h, w = n->in_w, C = n->in_c;
+    const nn_dims bd = {1, h, w, C};
+    struct s8_job cj = {
+        .op = S8_CLAMP, .in_dims = &bd, .out = in, .out_stride = cs, .lo = N->L.lo, .hi = N->L.hi};
+    if (s->k->s8.packed) {
+        cj.op = S8_CLAMP_P;
+        cj.k = &s->k->s8;
+        pl_pool_for(pool, h * w, run_s8, &cj);
+    } else {
+        pl_pool_for(pool, C, run_s8, &cj);
+    }
+    const int bands = s->g.shape.bands;
+    for (int c = 0; c < C; c++)
         for (int k = 0; k < bands; k++) {
             const int y0 = k * h / bands, y1 = ((k + 1) * h + bands - 1) / bands;
-            const int32_t n = (y1 - y0) * w;
+            const int32_t n_px = (y1 - y0) * w;
             int32_t sum = 0;
             for (int y = y0; y < y1; y++)
                 for (int x = 0; x < w; x++)
-                    sum += cur[((size_t)y * w + x) * FEATURES + c];
-            const int32_t avg = sum > 0 ? (sum + n / 2) / n : (sum - n / 2) / n;
-            s->zq[c * bands + k] = (int8_t)avg;
-            /* a float fc reads the exact mean; the int8 fc needs it on the int8 grid */
-            const float mean = s->fc_bf ? (float)sum / (float)n : (float)avg;
-            s->z[c * bands + k] = s->n5_deq[c] * mean + s->n5_deq[FEATURES + c];
+                    sum += in[((size_t)y * w + x) * cs + c];
+            const int32_t avg = sum > 0 ? (sum + n_px / 2) / n_px : (sum - n_px / 2) / n_px;
+            zq[c * bands + k] = (int8_t)avg;
+            const float mean = s->z_exact ? (float)sum / (float)n_px : (float)avg;
+            s->z[c * bands + k] = N->deq[c] * mean + N->deq[C + c];
         }
-    pl_prof_mark(s->prof, PL_PROF_NORM5, &t);
-    if (s->observer) s->observer(s->observer_ctx, "z", s->z, s->z_len, 1, 1, NULL);
+}
 
-    const int fcn = s->sh.fc_n;
-    if (s->fc_wf) {
-        fc_f32(pool, s->z, s->z_len, s->fc_wf, s->fc_bf, fcn, 1, s->h);
-    } else if (s->fc_w8) {
-        pl_pool_for(pool, fcn, fc_w8_rows, s);
+/* An FC node: int8 (then dequantised to h), or kept float. */
+static void run_fc(pl_s8 *s, pl_pool *pool, const pl_gnode *n, const struct s8_node *N,
+                   const int8_t *zq, int8_t *hq)
+{
+    if (N->wf) {
+        fc_f32(pool, s->z, n->in_c, N->wf, N->bf, n->out_c, n->relu, s->h);
+    } else if (N->w8) {
+        struct fc_w8_job j = {N, s->z, n->in_c, s->h};
+        pl_pool_for(pool, n->out_c, fc_w8_rows, &j);
     } else {
-        layer(s, pool, S8_FC, &s->fc, s->zq, s->hq);
-        for (int i = 0; i < fcn; i++)
-            s->h[i] = s->fc.out_scale[i] * ((float)s->hq[i] + 128.0f);
+        layer(s, pool, S8_FC, &N->L, zq, hq);
+        for (int i = 0; i < n->out_c; i++)
+            s->h[i] = N->L.out_scale[i] * ((float)hq[i] + 128.0f);
     }
-    if (s->observer) s->observer(s->observer_ctx, "fc", s->h, fcn, 1, 1, NULL);
+}
 
-    pl_heads_run(&s->heads, s->z, s->h, heads_fc, pool);
-    pl_prof_mark(s->prof, PL_PROF_HEADS, &t);
+/* Runs the graph's nodes in order (model/graph.h); tensors are NHWC, a node's output starts at
+ * channel out_c0 of each pixel. */
+static void forward(pl_s8 *s, pl_pool *pool, int64_t t)
+{
+    const pl_graph *g = &s->g;
+    for (int i = 0; i < g->n_nodes; i++) {
+        const pl_gnode *n = &g->nodes[i];
+        const struct s8_node *N = &s->nodes[i];
+        int8_t *in = s->tensor[n->in];
+        int8_t *out = n->out >= 0 ? s->tensor[n->out] + n->out_c0 : NULL;
+        switch (n->op) {
+        case PL_NODE_CONV:
+            run_conv(s, pool, n, N, in, out);
+            break;
+        case PL_NODE_MAXPOOL: {
+            const nn_pool_s8_params mp = {n->k,   n->k,   n->stride, n->stride,
+                                          n->pad, n->pad, -128,      127};
+            const nn_dims id = {1, n->in_h, n->in_w, n->in_c},
+                          od = {1, n->out_h, n->out_w, n->in_c};
+            struct s8_job j = {.op = S8_MAXPOOL,
+                               .pool = &mp,
+                               .in_dims = &id,
+                               .out_dims = &od,
+                               .in = in,
+                               .out = out,
+                               .in_stride = g->tensors[n->in].c,
+                               .out_stride = g->tensors[n->out].c};
+            if (s->k->s8.packed) {
+                j.op = S8_MAXPOOL_P;
+                j.k = &s->k->s8;
+                pl_pool_for(pool, n->out_h * n->out_w, run_s8, &j);
+            } else {
+                pl_pool_for(pool, n->in_c, run_s8, &j);
+            }
+            break;
+        }
+        case PL_NODE_BANDS:
+            run_bands(s, pool, n, N, in, out);
+            break;
+        case PL_NODE_FC:
+            run_fc(s, pool, n, N, in, out);
+            break;
+        case PL_NODE_HEADS:
+            pl_heads_run(&s->heads, s->z, s->h, heads_fc, pool);
+            break;
+        }
+        pl_prof_mark(s->prof, n->stage, &t);
+        if (!s->observer || !out || n->op == PL_NODE_MAXPOOL) continue;
+        if (n->op == PL_NODE_BANDS || n->op == PL_NODE_FC) { /* dequantised already */
+            s->observer(s->observer_ctx, n->name, n->op == PL_NODE_FC ? s->h : s->z, n->out_c, 1, 1,
+                        NULL);
+            continue;
+        }
+        const int8_t *x = out; /* an into_next's output was copied from the next A into T */
+        int stride = g->tensors[n->out].c;
+        if (s->k->s8.packed && N->into_next) x = s->t, stride = n->out_c;
+        observe_s8(s, n->name, x, n->out_c, n->out_h, n->out_w, stride, &N->L);
+    }
 }
 
 /* Rows [y0, y1) of the padded stem input: the resized frame (floats in T) as s8 (zero point
- * -128), padded by STEM_PAD with the mean pixel, so conv0 runs unpadded and the border is the
- * normalised network's zero. */
+ * -128), padded by the first conv's padding with the mean pixel, so that conv runs unpadded and the
+ * border is the normalised network's zero. */
 static void pad_input(void *ctx, int y0, int y1)
 {
     const pl_s8 *s = ctx;
-    const int H = s->sh.in_h, W = s->sh.in_w, PW = W + 2 * STEM_PAD;
+    const int H = s->g.shape.in_h, W = s->g.shape.in_w, P = s->in_pad, PW = W + 2 * P;
     const size_t plane = (size_t)H * W;
     const int8_t pad[3] = {(int8_t)(s->pad_px[0] - 128), (int8_t)(s->pad_px[1] - 128),
                            (int8_t)(s->pad_px[2] - 128)};
     for (int y = y0; y < y1; y++) {
-        int8_t *row = s->buf_b + (size_t)y * PW * 3;
-        const int inside = y >= STEM_PAD && y < STEM_PAD + H;
+        int8_t *row = s->tensor[s->g.input] + (size_t)y * PW * 3;
+        const int inside = y >= P && y < P + H;
         for (int xx = 0; xx < PW; xx++)
-            if (!inside || xx < STEM_PAD || xx >= STEM_PAD + W) memcpy(row + 3 * xx, pad, 3);
+            if (!inside || xx < P || xx >= P + W) memcpy(row + 3 * xx, pad, 3);
         if (!inside) continue;
         for (int c = 0; c < 3; c++) {
-            const float *f = s->fin + c * plane + (size_t)(y - STEM_PAD) * W;
-            int8_t *px = row + 3 * STEM_PAD + c;
+            const float *f = s->fin + c * plane + (size_t)(y - P) * W;
+            int8_t *px = row + 3 * P + c;
             for (int i = 0; i < W; i++) {
                 /* lrintf of the value clamped to [0, 255] (the same as clamping lrintf's
                  * result): adding and subtracting 1.5 * 2^23 rounds to nearest even */
@@ -1080,7 +1115,7 @@ static void pad_input(void *ctx, int y0, int y1)
 void pl_s8_estimate(pl_s8 *s, pl_pool *pool, const uint8_t *rgb, int width, int height,
                     size_t stride, pl_lighting *out, int64_t *t_pre_end)
 {
-    const int H = s->sh.in_h, W = s->sh.in_w, PH = H + 2 * STEM_PAD;
+    const int H = s->g.shape.in_h, W = s->g.shape.in_w, PH = H + 2 * s->in_pad;
     int64_t pt = pl_prof_now(s->prof);
     int x0, y0, cw, ch;
     pl_crop_to_aspect(width, height, W, H, &x0, &y0, &cw, &ch);

@@ -12,7 +12,7 @@
 #include <stdint.h>
 
 #include "core/threads.h"
-#include "model/arch.h"
+#include "model/graph.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/profile.h"
@@ -32,6 +32,7 @@ void pl_s8_set_profile(pl_s8 *s, pl_profile *p);
 /* Runs one frame (arguments already validated by pl_estimate_rgb8). */
 void pl_s8_estimate(pl_s8 *s, pl_pool *pool, const uint8_t *rgb, int width, int height,
                     size_t stride, pl_lighting *out, int64_t *t_pre_end);
+const pl_graph *pl_s8_graph(const pl_s8 *s);
 /* The dequantised latent of the last estimate. */
 void pl_s8_latent(const pl_s8 *s, const float **z, int *n);
 

@@ -11,7 +11,7 @@
  * the int8 range starts at: the quantiser clips a producer's range where every consumer's
  * BN + ReLU clamps anyway (docs/QUANT.md), so values below it are equivalent to it.
  *
- * Layer names (in execution order):
+ * Layer names (in execution order; the graph's node names, model/graph.h):
  *   conv0                              conv0 + ReLU (64 channels, before the max pool)
  *   denseblock{b}.denselayer{l}.conv1  bottleneck 1x1 conv + ReLU (128 channels)
  *   denseblock{b}.denselayer{l}.conv2  the 32 new channels of the dense layer

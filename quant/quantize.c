@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "core/util.h"
-#include "model/arch.h"
+#include "model/graph.h"
 #include "model/observer.h"
 #include "model/plm.h"
 #include "model/plm_write.h"
@@ -15,16 +15,17 @@
 #include "port/source.h"
 #include "quant/fold.h"
 
-/* The activations the int8 graph quantises, in execution order (model/observer.h names). */
-#define MAX_ACTS (1 + 2 * MAX_LAYERS + N_BLOCKS - 1 + 1)
+/* The activations the int8 graph quantises, in execution order (model/observer.h names): the
+ * outputs of the graph's convolutions and of its fc. */
+#define MAX_ACTS PL_GRAPH_MAX_NODES
 
 /* Activations are quantised per channel (scales) with one zero point per activation. */
 struct acts {
     int n;
     char names[MAX_ACTS][64];
     int relu[MAX_ACTS];
-    int block[MAX_ACTS], ch0[MAX_ACTS]; /* the block buffer (0..3) and channel offset it writes,
-                                           or block -1 */
+    int block[MAX_ACTS], ch0[MAX_ACTS]; /* the concatenation (graph tensor) and channel offset
+                                           its values end in (pl_gnode.lands), or block -1 */
     int channels[MAX_ACTS];
     pl_hist *hist[MAX_ACTS]; /* [channels] each, allocated at the first observation */
     pl_qparams *q[MAX_ACTS]; /* [channels] */
@@ -41,49 +42,49 @@ static void add_act(struct acts *a, const char *name, int relu, int block, int c
     a->n++;
 }
 
-/* The range of block channel c that matters: every consumer (the later dense layers' norm1, the
- * transition's or norm5's norm) computes relu(a*x + b), which is 0 below t = -b/a for a > 0 and
- * above t for a < 0. Below the smallest such t of the a > 0 consumers (when no consumer has
- * a < 0) every consumer clamps anyway, so the producer may clip there: lo[c]; likewise hi[c]. */
-static int consumer_bounds(const pl_plm *f, int blk, double *lo, double *hi)
+/* The range of channel c of concatenation `t` that matters: every consumer (a node with a
+ * pre-activation norm reading t: the later dense layers' norm1, the transition's or norm5's norm)
+ * computes relu(a*x + b), which is 0 below t = -b/a for a > 0 and above t for a < 0. Below the
+ * smallest such t of the a > 0 consumers (when no consumer has a < 0) every consumer clamps
+ * anyway, so the producer may clip there: lo[c]; likewise hi[c]. */
+static int consumer_bounds(const pl_plm *f, const pl_graph *g, int t, double *lo, double *hi)
 {
-    const int ctot = block_c0[blk] + GROWTH * block_layers[blk];
-    int has_neg[FEATURES] = {0}, has_pos[FEATURES] = {0};
+    const int ctot = g->tensors[t].c;
+    int *has_neg = calloc((size_t)ctot, sizeof *has_neg),
+        *has_pos = calloc((size_t)ctot, sizeof *has_pos);
+    if (!has_neg || !has_pos) {
+        free(has_neg);
+        free(has_pos);
+        return pl_error(PL_E_NOMEM, "out of memory");
+    }
     for (int c = 0; c < ctot; c++) {
         lo[c] = INFINITY;
         hi[c] = -INFINITY;
     }
     char sn[PL_PLM_NAME_MAX], hn[PL_PLM_NAME_MAX];
-    for (int l = 0; l <= block_layers[blk]; l++) {
-        int cin;
-        if (l < block_layers[blk]) {
-            cin = block_c0[blk] + GROWTH * l;
-            snprintf(sn, sizeof sn, "denseblock%d.denselayer%d.norm1.scale", blk + 1, l + 1);
-            snprintf(hn, sizeof hn, "denseblock%d.denselayer%d.norm1.shift", blk + 1, l + 1);
-        } else {
-            cin = ctot;
-            if (blk < N_BLOCKS - 1) {
-                snprintf(sn, sizeof sn, "transition%d.norm.scale", blk + 1);
-                snprintf(hn, sizeof hn, "transition%d.norm.shift", blk + 1);
-            } else {
-                snprintf(sn, sizeof sn, "norm5.scale");
-                snprintf(hn, sizeof hn, "norm5.shift");
-            }
-        }
+    int rc = PL_OK;
+    for (int i = 0; i < g->n_nodes && rc == PL_OK; i++) {
+        const pl_gnode *n = &g->nodes[i];
+        if (n->in != t || !n->norm[0]) continue;
+        const int cin = n->in_c;
+        snprintf(sn, sizeof sn, "%s.scale", n->norm);
+        snprintf(hn, sizeof hn, "%s.shift", n->norm);
         const pl_tensor *ts = pl_plm_tensor(f, sn), *th = pl_plm_tensor(f, hn);
         if (!ts || !th || ts->dtype != PL_DT_F32 || th->dtype != PL_DT_F32 ||
-            ts->count != (size_t)cin || th->count != (size_t)cin)
-            return pl_error(PL_E_MODEL, "%s: float tensors '%s' / '%s' missing", f->path, sn, hn);
+            ts->count != (size_t)cin || th->count != (size_t)cin) {
+            rc = pl_error(PL_E_MODEL, "%s: float tensors '%s' / '%s' missing", f->path, sn, hn);
+            break;
+        }
         const float *a = ts->data, *b = th->data;
         for (int c = 0; c < cin; c++) {
             if (a[c] == 0) continue;
-            const double t = -(double)b[c] / a[c];
+            const double th_c = -(double)b[c] / a[c];
             if (a[c] > 0) {
                 has_pos[c] = 1;
-                if (t < lo[c]) lo[c] = t;
+                if (th_c < lo[c]) lo[c] = th_c;
             } else {
                 has_neg[c] = 1;
-                if (t > hi[c]) hi[c] = t;
+                if (th_c > hi[c]) hi[c] = th_c;
             }
         }
     }
@@ -91,7 +92,9 @@ static int consumer_bounds(const pl_plm *f, int blk, double *lo, double *hi)
         if (has_neg[c] || !has_pos[c]) lo[c] = -INFINITY;
         if (has_pos[c] || !has_neg[c]) hi[c] = INFINITY;
     }
-    return PL_OK;
+    free(has_neg);
+    free(has_pos);
+    return rc;
 }
 
 /* Per-channel ranges from a finite calibration set are too narrow for the channels that saw few
@@ -168,11 +171,11 @@ static void observe(void *ctx, const char *layer, const float *chw, int c, int h
 
 struct qctx {
     const pl_plm *f;
+    const pl_graph *g;
     pl_plm_writer *w;
     const struct acts *a;
-    int keep_fc;
-    int keep_trans[N_BLOCKS - 1]; /* --keep-float transitionN */
-    char kept[64];                /* the layers kept float, in network order ("" for none) */
+    int keep[PL_GRAPH_MAX_NODES]; /* --keep-float: nodes kept float */
+    char kept[256];               /* the layers kept float, in network order ("" for none) */
 };
 
 static const float *tensor_f32(const struct qctx *q, const char *name, size_t count, int *rc)
@@ -199,17 +202,19 @@ static const pl_qparams *act_q(const struct qctx *q, const char *name)
 static int add_act_tensor(struct qctx *q, const char *prefix, const pl_qparams *p, int c, int relu)
 {
     char name[PL_PLM_NAME_MAX];
-    float sc[2 * FEATURES];
+    float *sc = malloc(2 * (size_t)c * sizeof *sc);
+    if (!sc) return pl_error(PL_E_NOMEM, "out of memory");
     for (int i = 0; i < c; i++) {
         sc[i] = p[i].scale;
         sc[c + i] = (float)p[i].zero_point;
     }
     snprintf(name, sizeof name, "%s.out", prefix);
-    if (relu)
-        return pl_plm_writer_add(q->w, name, PL_DT_F32, 1, (const uint32_t[]){(uint32_t)c}, sc,
-                                 0.0f, -128);
-    return pl_plm_writer_add(q->w, name, PL_DT_F32, 2, (const uint32_t[]){2, (uint32_t)c}, sc, 0.0f,
-                             0);
+    const int rc = relu ? pl_plm_writer_add(q->w, name, PL_DT_F32, 1,
+                                            (const uint32_t[]){(uint32_t)c}, sc, 0.0f, -128)
+                        : pl_plm_writer_add(q->w, name, PL_DT_F32, 2,
+                                            (const uint32_t[]){2, (uint32_t)c}, sc, 0.0f, 0);
+    free(sc);
+    return rc;
 }
 
 /* Quantises one conv / FC (weights already in OHWI / [out][depth] order) and adds
@@ -334,16 +339,17 @@ static int add_rows_s8(struct qctx *q, const char *prefix, int rows, int cols, c
 }
 
 /* A transition kept float (--keep-float transitionN): its input is dequantised and its norm +
- * ReLU applied in one affine, max(0, A[c]*q + B[c]) (prefix.norm.dequant, f32 [2][c]), then
- * the 2x2 average pool and the 1x1 conv in float (prefix.conv.weight s8 [c/2][c] and
- * prefix.conv.wscale: the conv's own weights, not folded with the input's per-channel scales,
- * whose spread is what costs an int8 transition its precision); its output is quantised to the
- * next block's grid as an int8 transition's (prefix.conv.out). */
-static int add_float_transition(struct qctx *q, const char *pre, const float *scale,
-                                const float *shift, const pl_qparams *seg, int c, const float *w,
+ * ReLU applied in one affine, max(0, A[c]*q + B[c]) (norm.dequant, f32 [2][c]), then the 2x2
+ * average pool and the 1x1 conv in float (name.weight s8 [out_c][c] and name.wscale: the conv's
+ * own weights, not folded with the input's per-channel scales, whose spread is what costs an
+ * int8 transition its precision); its output is quantised to the next block's grid as an int8
+ * transition's (name.out). */
+static int add_float_transition(struct qctx *q, const pl_gnode *n, const float *scale,
+                                const float *shift, const pl_qparams *seg, const float *w,
                                 const pl_qparams *out)
 {
     char name[PL_PLM_NAME_MAX];
+    const int c = n->in_c;
     float *deq = malloc(2 * (size_t)c * sizeof *deq);
     if (!deq) return pl_error(PL_E_NOMEM, "out of memory");
     for (int i = 0; i < c; i++) {
@@ -351,28 +357,142 @@ static int add_float_transition(struct qctx *q, const char *pre, const float *sc
         deq[i] = (float)A;
         deq[c + i] = (float)(shift[i] - A * seg[i].zero_point);
     }
-    snprintf(name, sizeof name, "%s.norm.dequant", pre);
+    snprintf(name, sizeof name, "%s.dequant", n->norm);
     int rc = pl_plm_writer_add(q->w, name, PL_DT_F32, 2, (const uint32_t[]){2, (uint32_t)c}, deq,
                                0.0f, 0);
     free(deq);
-    snprintf(name, sizeof name, "%s.conv", pre);
-    if (rc == PL_OK) rc = add_rows_s8(q, name, c / 2, c, w);
-    if (rc == PL_OK) rc = add_act_tensor(q, name, out, c / 2, 0);
+    if (rc == PL_OK) rc = add_rows_s8(q, n->name, n->out_c, c, w);
+    if (rc == PL_OK) rc = add_act_tensor(q, n->name, out, n->out_c, 0);
     return rc;
 }
 
-static int meta_int(const pl_plm *f, const char *key)
+/* Float tensor `prefix.suffix` with n values (rc as tensor_f32). */
+static const float *node_f32(const struct qctx *q, const char *prefix, const char *suffix, size_t n,
+                             int *rc)
 {
-    const char *v = pl_plm_meta(f, key);
-    return v ? atoi(v) : 0;
+    char name[PL_PLM_NAME_MAX];
+    snprintf(name, sizeof name, "%s.%s", prefix, suffix);
+    return tensor_f32(q, name, n, rc);
+}
+
+/* Writes node i's int8 tensors (docs/FORMAT.md "int8 models"): a conv's input clamps and
+ * folded layer (or its float form, kept float), the band pooling's clamps and dequantisation,
+ * the fc, the heads. seg: the producers' quantisation of each concatenation's channels, updated
+ * as nodes write them. */
+static int build_node(struct qctx *q, int i, const pl_preact *in_fold, pl_qparams **seg,
+                      pl_preact *fold, pl_preact *zfold)
+{
+    const pl_graph *g = q->g;
+    const pl_gnode *n = &g->nodes[i];
+    const pl_plm *f = q->f;
+    char name[PL_PLM_NAME_MAX];
+    int rc = PL_OK;
+    switch (n->op) {
+    case PL_NODE_MAXPOOL:
+        return PL_OK; /* values kept: its input's grid */
+    case PL_NODE_CONV: {
+        const size_t cin = (size_t)n->in_c, kk = (size_t)n->k * n->k;
+        const float *sc = NULL, *sf = NULL;
+        if (n->norm[0]) {
+            sc = node_f32(q, n->norm, "scale", cin, &rc);
+            sf = node_f32(q, n->norm, "shift", cin, &rc);
+        }
+        const float *w = node_f32(q, n->name, "weight", (size_t)n->out_c * cin * kk, &rc);
+        const float *bias = n->bias ? node_f32(q, n->name, "bias", (size_t)n->out_c, &rc) : NULL;
+        if (rc < 0) return rc;
+        const pl_qparams *qo = act_q(q, n->name);
+        if (q->keep[i]) {
+            rc = add_float_transition(q, n, sc, sf, seg[n->in], w, qo);
+        } else {
+            const pl_preact *fl = fold;
+            int32_t in_off = 0;
+            if (n->in == g->input) { /* the u8 input: offset 128 from its s8 storage */
+                fl = in_fold;
+                in_off = 128;
+            } else if (n->norm[0]) { /* a concatenation's channels through the BN + ReLU */
+                snprintf(name, sizeof name, "%s.clamp", n->unit);
+                if ((rc = add_preact(q, name, sc, sf, seg[n->in], n->in_c, fold)) < 0) return rc;
+            } else { /* a ReLU output read as it is */
+                int p = i - 1;
+                while (g->nodes[p].out != n->in)
+                    p--;
+                const pl_qparams *qi = act_q(q, g->nodes[p].name);
+                for (int c = 0; c < n->in_c; c++)
+                    pl_fold_plain(qi[c], &fold[c]);
+                in_off = -qi[0].zero_point;
+            }
+            float *wt = NULL;
+            if (n->k > 1 && !(wt = to_ohwi(w, n->out_c, n->in_c, n->k, n->k)))
+                return pl_error(PL_E_NOMEM, "out of memory");
+            rc = add_layer(q, n->name, 4,
+                           (const uint32_t[]){(uint32_t)n->out_c, (uint32_t)n->k, (uint32_t)n->k,
+                                              (uint32_t)n->in_c},
+                           wt ? wt : w, bias, fl, 1, n->in_c, in_off, qo, n->relu && n->lands < 0);
+            free(wt);
+        }
+        if (rc == PL_OK && n->lands >= 0)
+            for (int c = 0; c < n->out_c; c++)
+                seg[n->lands][n->lands_c0 + c] = qo[c];
+        return rc;
+    }
+    case PL_NODE_BANDS: {
+        const int C = n->in_c;
+        const float *sc = node_f32(q, n->norm, "scale", (size_t)C, &rc);
+        const float *sf = node_f32(q, n->norm, "shift", (size_t)C, &rc);
+        if (rc < 0) return rc;
+        snprintf(name, sizeof name, "%s.clamp", n->unit);
+        if ((rc = add_preact(q, name, sc, sf, seg[n->in], C, zfold)) < 0) return rc;
+        float *deq = malloc(2 * (size_t)C * sizeof *deq);
+        if (!deq) return pl_error(PL_E_NOMEM, "out of memory");
+        for (int c = 0; c < C; c++) {
+            deq[c] = zfold[c].active ? (float)zfold[c].A : 0.0f;
+            deq[C + c] = (float)(zfold[c].active ? zfold[c].B : zfold[c].constant);
+        }
+        snprintf(name, sizeof name, "%s.dequant", n->norm);
+        rc = pl_plm_writer_add(q->w, name, PL_DT_F32, 2, (const uint32_t[]){2, (uint32_t)C}, deq,
+                               0.0f, 0);
+        free(deq);
+        return rc;
+    }
+    case PL_NODE_FC: { /* on z: element c*bands + k belongs to the pooled channel c */
+        const pl_gnode *zn = &g->nodes[i - 1];
+        const float *fw = node_f32(q, n->name, "weight", (size_t)n->out_c * n->in_c, &rc);
+        if (q->keep[i]) { /* float on the exact z; weights stored int8 with a scale per row */
+            snprintf(name, sizeof name, "%s.bias", n->name);
+            if (rc < 0 || (rc = add_rows_s8(q, n->name, n->out_c, n->in_c, fw)) < 0) return rc;
+            return copy_f32(q, name);
+        }
+        const float *fb = node_f32(q, n->name, "bias", (size_t)n->out_c, &rc);
+        if (rc < 0) return rc;
+        return add_layer(q, n->name, 2,
+                         (const uint32_t[]){(uint32_t)n->out_c, (uint32_t)n->in_c, 0, 0}, fw, fb,
+                         zfold, g->shape.bands, zn->in_c, 0, act_q(q, n->name), n->relu);
+    }
+    case PL_NODE_HEADS: {
+        static const char *heads[] = {
+            "head_dir.weight",      "head_dir.bias",     "head_size.weight",
+            "head_size.bias",       "head_rgb.weight",   "head_rgb.bias",
+            "head_ambient.weight",  "head_ambient.bias", "head_dist.fc1.bias",
+            "head_dist.fc2.weight", "head_dist.fc2.bias"};
+        for (size_t k = 0; k < sizeof heads / sizeof heads[0]; k++)
+            if ((rc = copy_f32(q, heads[k])) < 0) return rc;
+        /* the distance head's first layer (3072+3N inputs) is the one big head: stored as s8
+         * with a scale per row, dequantised to float at load (it still runs in float) */
+        const pl_tensor *d1 = pl_plm_tensor(f, "head_dist.fc1.weight");
+        if (!d1 || d1->dtype != PL_DT_F32 || d1->ndim != 2)
+            return pl_error(PL_E_MODEL, "%s: float tensor 'head_dist.fc1.weight' missing", f->path);
+        return add_rows_s8(q, "head_dist.fc1", (int)d1->dims[0], (int)d1->dims[1], d1->data);
+    }
+    }
+    return PL_OK;
 }
 
 static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_report *rep)
 {
     const pl_plm *f = q->f;
+    const pl_graph *g = q->g;
     int rc = PL_OK;
-    char name[PL_PLM_NAME_MAX], pre[48], text[1024];
-    const int bands = meta_int(f, "bands"), fc_n = meta_int(f, "fc");
+    char text[1024];
     float mean[3], std[3];
     if (sscanf(pl_plm_meta(f, "mean"), "%f,%f,%f", &mean[0], &mean[1], &mean[2]) != 3 ||
         sscanf(pl_plm_meta(f, "std"), "%f,%f,%f", &std[0], &std[1], &std[2]) != 3)
@@ -416,7 +536,7 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
     }
     if (rc < 0) return rc;
 
-    /* stem: u8 input, padded with the mean pixel; normalisation folded into conv0 */
+    /* the u8 input, padded with the mean pixel; the normalisation folds into its first conv */
     uint8_t pad[3];
     pl_preact in_fold[3];
     for (int c = 0; c < 3; c++) {
@@ -429,156 +549,74 @@ static int build(struct qctx *q, const pl_quantize_opts *o, const pl_quantize_re
                                  .center = pad[c] - 128, /* the mean pixel */
                                  .active = 1};
     }
-    if ((rc = pl_plm_writer_add(q->w, "input", PL_DT_U8, 1, (const uint32_t[]){3}, pad,
-                                1.0f / 255.0f, 0)) < 0)
+    if ((rc = pl_plm_writer_add(q->w, g->tensors[g->input].name, PL_DT_U8, 1, (const uint32_t[]){3},
+                                pad, 1.0f / 255.0f, 0)) < 0)
         return rc;
-    const float *c0w = tensor_f32(q, "conv0.weight", 64 * 3 * 49, &rc);
-    const float *c0b = tensor_f32(q, "conv0.bias", 64, &rc);
-    if (rc < 0) return rc;
-    float *wt = to_ohwi(c0w, 64, 3, 7, 7);
-    if (!wt) return pl_error(PL_E_NOMEM, "out of memory");
-    rc = add_layer(q, "conv0", 4, (const uint32_t[]){64, 7, 7, 3}, wt, c0b, in_fold, 1, 3, 128,
-                   act_q(q, "conv0"), 0);
-    free(wt);
-    if (rc < 0) return rc;
 
-    pl_qparams seg[FEATURES];
-    pl_preact fold[FEATURES];
-    for (int c = 0; c < 64; c++)
-        seg[c] = act_q(q, "conv0")[c];
-    for (int b = 0; b < N_BLOCKS; b++) {
-        for (int l = 0; l < block_layers[b]; l++) {
-            const int cin = block_c0[b] + GROWTH * l;
-            snprintf(pre, sizeof pre, "denseblock%d.denselayer%d", b + 1, l + 1);
-#define T(suffix, n) (snprintf(name, sizeof name, "%s." suffix, pre), tensor_f32(q, name, n, &rc))
-            const float *sc = T("norm1.scale", (size_t)cin), *sf = T("norm1.shift", (size_t)cin);
-            const float *w1 = T("conv1.weight", (size_t)BOTTLENECK * cin);
-            const float *b1 = T("conv1.bias", BOTTLENECK);
-            const float *w2 = T("conv2.weight", (size_t)GROWTH * BOTTLENECK * 9);
-#undef T
-            if (rc < 0) return rc;
-            snprintf(name, sizeof name, "%s.clamp", pre);
-            if ((rc = add_preact(q, name, sc, sf, seg, cin, fold)) < 0) return rc;
-            snprintf(name, sizeof name, "%s.conv1", pre);
-            const pl_qparams *q1 = act_q(q, name);
-            if ((rc = add_layer(q, name, 4, (const uint32_t[]){BOTTLENECK, 1, 1, (uint32_t)cin}, w1,
-                                b1, fold, 1, cin, 0, q1, 1)) < 0)
-                return rc;
-            pl_preact plain[BOTTLENECK];
-            for (int c = 0; c < BOTTLENECK; c++)
-                pl_fold_plain(q1[c], &plain[c]);
-            snprintf(name, sizeof name, "%s.conv2", pre);
-            const pl_qparams *q2 = act_q(q, name);
-            wt = to_ohwi(w2, GROWTH, BOTTLENECK, 3, 3);
-            if (!wt) return pl_error(PL_E_NOMEM, "out of memory");
-            rc = add_layer(q, name, 4, (const uint32_t[]){GROWTH, 3, 3, BOTTLENECK}, wt, NULL,
-                           plain, 1, BOTTLENECK, -q1[0].zero_point, q2, 0);
-            free(wt);
-            if (rc < 0) return rc;
-            for (int c = 0; c < GROWTH; c++)
-                seg[cin + c] = q2[c];
-        }
-        const int ctot = block_c0[b] + GROWTH * block_layers[b];
-        if (b < N_BLOCKS - 1) {
-            snprintf(pre, sizeof pre, "transition%d", b + 1);
-#define T(suffix, n) (snprintf(name, sizeof name, "%s." suffix, pre), tensor_f32(q, name, n, &rc))
-            const float *sc = T("norm.scale", (size_t)ctot), *sf = T("norm.shift", (size_t)ctot);
-            const float *tw = T("conv.weight", (size_t)ctot / 2 * ctot);
-#undef T
-            if (rc < 0) return rc;
-            snprintf(name, sizeof name, "%s.conv", pre);
-            const pl_qparams *qt = act_q(q, name);
-            if (q->keep_trans[b])
-                rc = add_float_transition(q, pre, sc, sf, seg, ctot, tw, qt);
-            else {
-                snprintf(name, sizeof name, "%s.clamp", pre);
-                if ((rc = add_preact(q, name, sc, sf, seg, ctot, fold)) < 0) return rc;
-                snprintf(name, sizeof name, "%s.conv", pre);
-                rc = add_layer(q, name, 4,
-                               (const uint32_t[]){(uint32_t)ctot / 2, 1, 1, (uint32_t)ctot}, tw,
-                               NULL, fold, 1, ctot, 0, qt, 0);
-            }
-            if (rc < 0) return rc;
-            for (int c = 0; c < ctot / 2; c++)
-                seg[c] = qt[c];
-        } else {
-            const float *sc = tensor_f32(q, "norm5.scale", FEATURES, &rc);
-            const float *sf = tensor_f32(q, "norm5.shift", FEATURES, &rc);
-            if (rc < 0) return rc;
-            if ((rc = add_preact(q, "norm5.clamp", sc, sf, seg, FEATURES, fold)) < 0) return rc;
-            float deq[2 * FEATURES];
-            for (int c = 0; c < FEATURES; c++) {
-                deq[c] = fold[c].active ? (float)fold[c].A : 0.0f;
-                deq[FEATURES + c] = (float)(fold[c].active ? fold[c].B : fold[c].constant);
-            }
-            if ((rc = pl_plm_writer_add(q->w, "norm5.dequant", PL_DT_F32, 2,
-                                        (const uint32_t[]){2, FEATURES}, deq, 0.0f, 0)) < 0)
-                return rc;
-        }
+    /* seg[t]: per channel of concatenation t, the quantisation of the producer that wrote it;
+     * fold: a node's input folds; zfold: the band pooling's, which the fc reads */
+    pl_qparams *seg[PL_GRAPH_MAX_TENSORS] = {0};
+    int max_c = 0;
+    for (int t = 0; t < g->n_tensors; t++) {
+        if (g->tensors[t].c > max_c) max_c = g->tensors[t].c;
+        if (g->tensors[t].block >= 0 && !(seg[t] = calloc((size_t)g->tensors[t].c, sizeof **seg)))
+            rc = pl_error(PL_E_NOMEM, "out of memory");
     }
-    /* fc on z (element c*bands + k belongs to norm5 channel c) */
-    const int zl = FEATURES * bands;
-    if (q->keep_fc) { /* float on the exact z; weights stored int8 with a scale per row */
-        const float *fw = tensor_f32(q, "fc.weight", (size_t)fc_n * zl, &rc);
-        if (rc < 0 || (rc = add_rows_s8(q, "fc", fc_n, zl, fw)) < 0 ||
-            (rc = copy_f32(q, "fc.bias")) < 0)
-            return rc;
-    } else {
-        const float *fw = tensor_f32(q, "fc.weight", (size_t)fc_n * zl, &rc);
-        const float *fb = tensor_f32(q, "fc.bias", (size_t)fc_n, &rc);
-        if (rc < 0) return rc;
-        if ((rc = add_layer(q, "fc", 2, (const uint32_t[]){(uint32_t)fc_n, (uint32_t)zl, 0, 0}, fw,
-                            fb, fold, bands, FEATURES, 0, act_q(q, "fc"), 1)) < 0)
-            return rc;
-    }
-    static const char *heads[] = {"head_dir.weight",      "head_dir.bias",     "head_size.weight",
-                                  "head_size.bias",       "head_rgb.weight",   "head_rgb.bias",
-                                  "head_ambient.weight",  "head_ambient.bias", "head_dist.fc1.bias",
-                                  "head_dist.fc2.weight", "head_dist.fc2.bias"};
-    for (size_t i = 0; i < sizeof heads / sizeof heads[0]; i++)
-        if ((rc = copy_f32(q, heads[i])) < 0) return rc;
-    /* the distance head's first layer (3072+3N inputs) is the one big head: stored as s8 with a
-     * scale per row, dequantised to float at load (it still runs in float) */
-    const pl_tensor *d1 = pl_plm_tensor(f, "head_dist.fc1.weight");
-    if (!d1 || d1->dtype != PL_DT_F32 || d1->ndim != 2)
-        return pl_error(PL_E_MODEL, "%s: float tensor 'head_dist.fc1.weight' missing", f->path);
-    return add_rows_s8(q, "head_dist.fc1", (int)d1->dims[0], (int)d1->dims[1], d1->data);
+    pl_preact *fold = malloc((size_t)max_c * sizeof *fold);
+    pl_preact *zfold = malloc((size_t)max_c * sizeof *zfold);
+    if (!fold || !zfold) rc = pl_error(PL_E_NOMEM, "out of memory");
+    for (int i = 0; i < g->n_nodes && rc == PL_OK; i++)
+        rc = build_node(q, i, in_fold, seg, fold, zfold);
+    for (int t = 0; t < g->n_tensors; t++)
+        free(seg[t]);
+    free(fold);
+    free(zfold);
+    return rc;
 }
 
-static int parse_keep_float(const char *list, int *keep_fc, int *keep_trans)
+/* A node that can stay float: a pooled conv (a transition) or the fc, by its unit name. */
+static int keepable(const pl_gnode *n)
 {
-    *keep_fc = 0;
-    for (int b = 0; b < N_BLOCKS - 1; b++)
-        keep_trans[b] = 0;
-    if (!list || !*list) return PL_OK;
-    const char *p = list;
+    return n->unit[0] && (n->op == PL_NODE_FC || (n->op == PL_NODE_CONV && n->pool2));
+}
+
+/* --keep-float: sets q->keep and q->kept (network order). */
+static int parse_keep_float(const char *list, const pl_graph *g, struct qctx *q)
+{
+    const char *p = list ? list : "";
     while (*p) {
         const char *e = strchr(p, ',');
         const size_t n = e ? (size_t)(e - p) : strlen(p);
-        if (n == 2 && !strncmp(p, "fc", 2)) {
-            *keep_fc = 1;
-        } else if (n == 11 && !strncmp(p, "transition", 10) && p[10] >= '1' &&
-                   p[10] < '1' + N_BLOCKS - 1) {
-            keep_trans[p[10] - '1'] = 1;
-        } else if (n > 5 && !strncmp(p, "head_", 5)) {
-            /* the heads are always float */
-        } else {
+        int found = n > 5 && !strncmp(p, "head_", 5); /* the heads are always float */
+        for (int i = 0; i < g->n_nodes && !found; i++)
+            if (keepable(&g->nodes[i]) && strlen(g->nodes[i].unit) == n &&
+                !strncmp(p, g->nodes[i].unit, n))
+                found = q->keep[i] = 1;
+        if (!found) {
+            char can[256] = "";
+            for (int i = 0; i < g->n_nodes; i++)
+                if (keepable(&g->nodes[i]))
+                    snprintf(can + strlen(can), sizeof can - strlen(can), "%s'%s'",
+                             can[0] ? ", " : "", g->nodes[i].unit);
             return pl_error(PL_E_ARG,
-                            "--keep-float '%.*s': this layer cannot stay float (only "
-                            "'fc' and 'transition1' .. 'transition3' can; the heads are always "
-                            "float; the dense layers share int8 block buffers)",
-                            (int)n, p);
+                            "--keep-float '%.*s': this layer cannot stay float (only %s can; the "
+                            "heads are always float; the dense layers share int8 block buffers)",
+                            (int)n, p, can);
         }
         p += n;
         if (*p == ',') p++;
     }
+    for (int i = 0; i < g->n_nodes; i++)
+        if (q->keep[i])
+            snprintf(q->kept + strlen(q->kept), sizeof q->kept - strlen(q->kept), "%s%s",
+                     q->kept[0] ? "," : "", g->nodes[i].unit);
     return PL_OK;
 }
 
 int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
 {
     memset(rep, 0, sizeof *rep);
-    int keep_fc, keep_trans[N_BLOCKS - 1], rc;
+    int rc;
     if (o->method == PL_CALIB_PERCENTILE && !(o->percentile > 50 && o->percentile <= 100))
         return pl_error(PL_E_ARG, "percentile %g: expected (50, 100]", o->percentile);
     if (o->headroom != 0 && !(o->headroom >= 1 && o->headroom <= 16))
@@ -586,13 +624,14 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
     const double headroom = o->headroom > 0 ? o->headroom : 1.0;
     if (o->block_floor_set && !(o->block_floor >= 0 && o->block_floor <= 1))
         return pl_error(PL_E_ARG, "block floor %g: expected [0, 1]", o->block_floor);
-    if ((rc = parse_keep_float(o->keep_float, &keep_fc, keep_trans)) < 0) return rc;
 
     pl_model *m = NULL;
     pl_source *src = NULL;
     pl_plm file;
     memset(&file, 0, sizeof file);
     pl_plm_writer *w = NULL;
+    struct qctx q = {.f = &file};
+    double *blo[PL_GRAPH_MAX_TENSORS] = {0}, *bhi[PL_GRAPH_MAX_TENSORS] = {0};
     struct acts *a = calloc(1, sizeof *a);
     if (!a) return pl_error(PL_E_NOMEM, "out of memory");
     if ((rc = pl_model_load(o->float_path, &m)) < 0) goto done;
@@ -601,23 +640,17 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
                       o->float_path, pl_model_precision(m));
         goto done;
     }
+    const pl_graph *g = pl_model_graph(m);
+    q.g = g;
+    if ((rc = parse_keep_float(o->keep_float, g, &q)) < 0) goto done;
     if ((rc = pl_plm_open(o->float_path, &file)) < 0) goto done;
 
-    char name[64];
-    add_act(a, "conv0", 1, 0, 0);
-    for (int b = 0; b < N_BLOCKS; b++) {
-        for (int l = 0; l < block_layers[b]; l++) {
-            snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv1", b + 1, l + 1);
-            add_act(a, name, 1, -1, 0);
-            snprintf(name, sizeof name, "denseblock%d.denselayer%d.conv2", b + 1, l + 1);
-            add_act(a, name, 0, b, block_c0[b] + GROWTH * l);
-        }
-        if (b < N_BLOCKS - 1) {
-            snprintf(name, sizeof name, "transition%d.conv", b + 1);
-            add_act(a, name, 0, b + 1, 0);
-        }
+    /* every conv's and the fc's output (block: the concatenation it ends in, or -1) */
+    for (int i = 0; i < g->n_nodes; i++) {
+        const pl_gnode *n = &g->nodes[i];
+        if (n->op == PL_NODE_CONV || n->op == PL_NODE_FC)
+            add_act(a, n->name, n->relu, n->lands, n->lands >= 0 ? n->lands_c0 : 0);
     }
-    add_act(a, "fc", 1, -1, 0);
     if ((rc = pl_model_set_observer(m, observe, a)) < 0) goto done;
 
     if ((rc = pl_source_open_path(o->calib, &src)) < 0) {
@@ -654,9 +687,16 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
                       (long long)rep->frames_bad);
         goto done;
     }
-    static double blo[N_BLOCKS][FEATURES], bhi[N_BLOCKS][FEATURES];
-    for (int b = 0; b < N_BLOCKS; b++)
-        if ((rc = consumer_bounds(&file, b, blo[b], bhi[b])) < 0) goto done;
+    for (int t = 0; t < g->n_tensors; t++) {
+        if (g->tensors[t].block < 0) continue;
+        blo[t] = malloc((size_t)g->tensors[t].c * sizeof **blo);
+        bhi[t] = malloc((size_t)g->tensors[t].c * sizeof **bhi);
+        if (!blo[t] || !bhi[t]) {
+            rc = pl_error(PL_E_NOMEM, "out of memory");
+            goto done;
+        }
+        if ((rc = consumer_bounds(&file, g, t, blo[t], bhi[t])) < 0) goto done;
+    }
     for (int i = 0; i < a->n; i++) {
         if (!a->hist[i]) {
             rc = pl_error(PL_E_INTERNAL, "activation '%s' was never observed", a->names[i]);
@@ -671,7 +711,7 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
             lo *= headroom;
             hi *= headroom;
             if (rc == PL_OK &&
-                a->block[i] >= 0) { /* a block buffer segment: clip to its consumers */
+                a->block[i] >= 0) { /* a concatenation's segment: clip to its consumers */
                 const int c = a->ch0[i] + k, b = a->block[i];
                 if (lo > 0) lo = 0; /* as pl_qparams_from_range: the range holds 0 */
                 if (hi < 0) hi = 0;
@@ -694,14 +734,8 @@ int pl_quantize_model(const pl_quantize_opts *o, pl_quantize_report *rep)
         floor_scales(a, i, o->block_floor_set ? o->block_floor : FLOOR_BLOCK);
     rep->n_activations = a->n;
     if ((rc = pl_plm_writer_create(&w)) < 0) goto done;
-    struct qctx q = {.f = &file, .w = w, .a = a, .keep_fc = keep_fc};
-    memcpy(q.keep_trans, keep_trans, sizeof keep_trans);
-    for (int b = 0; b < N_BLOCKS - 1; b++)
-        if (keep_trans[b])
-            snprintf(q.kept + strlen(q.kept), sizeof q.kept - strlen(q.kept), "%stransition%d",
-                     q.kept[0] ? "," : "", b + 1);
-    if (keep_fc) snprintf(q.kept + strlen(q.kept), sizeof q.kept - strlen(q.kept), "%sfc",
-                          q.kept[0] ? "," : "");
+    q.w = w;
+    q.a = a;
     if ((rc = build(&q, o, rep)) < 0) goto done;
     rc = pl_plm_writer_save(w, o->out_path);
 done:
@@ -709,6 +743,10 @@ done:
     pl_source_close(src);
     pl_plm_close(&file);
     pl_model_free(m);
+    for (int t = 0; t < PL_GRAPH_MAX_TENSORS; t++) {
+        free(blo[t]);
+        free(bhi[t]);
+    }
     for (int i = 0; a && i < a->n; i++) {
         free(a->hist[i]);
         free(a->q[i]);

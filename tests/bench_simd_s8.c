@@ -13,7 +13,7 @@
 
 #include "core/util.h"
 #include "kernels/dispatch.h"
-#include "model/arch.h"
+#include "model/graph.h"
 
 static uint64_t rng = 0x243f6a8885a308d3ULL;
 static uint32_t rnd(void)
@@ -44,8 +44,8 @@ static int cmp_i64(const void *a, const void *b)
 
 enum { T_STEM, T_MAXPOOL, T_CONV1, T_CONV2, T_TRANS, T_FC, T_COUNT };
 static const char *const tname[T_COUNT] = {"stem conv0 7x7/2 3->64", "maxpool 3x3/2",
-                                           "dense conv1 1x1+clamp", "dense conv2 3x3 128->32",
-                                           "transition pool+1x1", "fc 3072->512"};
+                                           "dense conv1 1x1+clamp",  "dense conv2 3x3 128->32",
+                                           "transition pool+1x1",    "fc 3072->512"};
 static double t_a[T_COUNT], t_run[T_COUNT], mmac[T_COUNT];
 static int count[T_COUNT];
 static int reps = 50;
@@ -71,7 +71,9 @@ static void bench_conv(const pl_kernels_s8 *K, int type, int n_in_h, int n_in_w,
     pl_s8_conv c;
     const int dense = k == 1, rows = in_c < 8;
     pl_s8_conv_init(&c, &p, &q, &in, &filt, &out,
-                    dense ? PL_S8_A_PACK : rows ? PL_S8_A_ROWS : PL_S8_A_PAD);
+                    dense  ? PL_S8_A_PACK
+                    : rows ? PL_S8_A_ROWS
+                           : PL_S8_A_PAD);
     int8_t *w = xalloc((size_t)out_c * (size_t)(k * k) * (size_t)in_c);
     void *mem = xalloc(pl_s8_conv_packed_size(&c, K->layout));
     K->pack(&c, w, bias, mem);
@@ -84,7 +86,8 @@ static void bench_conv(const pl_kernels_s8 *K, int type, int n_in_h, int n_in_w,
     uint8_t *a = xalloc(pl_s8_conv_a_size(&c));
     int8_t *o = xalloc((size_t)oh * (size_t)ow * (size_t)out_c);
     const nn_pool_s8_params ap = {2, 2, 2, 2, 0, 0, -128, 127};
-    int64_t *ta = xalloc(sizeof(int64_t) * (size_t)reps), *tr = xalloc(sizeof(int64_t) * (size_t)reps);
+    int64_t *ta = xalloc(sizeof(int64_t) * (size_t)reps),
+            *tr = xalloc(sizeof(int64_t) * (size_t)reps);
     for (int r = 0; r < reps; r++) {
         const int64_t t0 = pl_now_ns();
         if (pool)
@@ -129,6 +132,27 @@ static void bench_conv(const pl_kernels_s8 *K, int type, int n_in_h, int n_in_w,
     free(o);
 }
 
+/* The max pool of n into a tensor of out_cs channels a pixel. */
+static void bench_maxpool(const pl_kernels_s8 *K, const pl_gnode *n, int out_cs)
+{
+    const nn_pool_s8_params mp = {n->k, n->k, n->stride, n->stride, n->pad, n->pad, -128, 127};
+    const nn_dims in = {1, n->in_h, n->in_w, n->in_c}, out = {1, n->out_h, n->out_w, n->in_c};
+    int8_t *x = xalloc((size_t)n->in_c * (size_t)n->in_h * (size_t)n->in_w);
+    int8_t *o = xalloc((size_t)out_cs * (size_t)n->out_h * (size_t)n->out_w);
+    int64_t *t = xalloc(sizeof(int64_t) * (size_t)reps);
+    for (int r = 0; r < reps; r++) {
+        const int64_t t0 = pl_now_ns();
+        K->maxpool(&mp, &in, x, n->in_c, &out, o, out_cs, 0, n->out_h * n->out_w);
+        t[r] = pl_now_ns() - t0;
+    }
+    qsort(t, (size_t)reps, sizeof *t, cmp_i64);
+    t_run[T_MAXPOOL] += (double)t[reps / 2] / 1e6;
+    count[T_MAXPOOL]++;
+    free(x);
+    free(o);
+    free(t);
+}
+
 int main(int argc, char **argv)
 {
     int H = 192, W = 256;
@@ -157,39 +181,29 @@ int main(int argc, char **argv)
         return 1;
     }
     const pl_kernels_s8 *K = &k->s8;
-    bench_conv(K, T_STEM, H + 6, W + 6, 3, 3, 64, 7, 2, 0, 0, 0);
-    {
-        const nn_pool_s8_params mp = {3, 3, 2, 2, 1, 1, -128, 127};
-        const nn_dims in = {1, H / 2, W / 2, 64}, out = {1, H / 4, W / 4, 64};
-        int8_t *x = xalloc((size_t)64 * (size_t)(H / 2) * (size_t)(W / 2));
-        int8_t *o = xalloc((size_t)256 * (size_t)(H / 4) * (size_t)(W / 4));
-        int64_t *t = xalloc(sizeof(int64_t) * (size_t)reps);
-        for (int r = 0; r < reps; r++) {
-            const int64_t t0 = pl_now_ns();
-            K->maxpool(&mp, &in, x, 64, &out, o, 256, 0, (H / 4) * (W / 4));
-            t[r] = pl_now_ns() - t0;
-        }
-        qsort(t, (size_t)reps, sizeof *t, cmp_i64);
-        t_run[T_MAXPOOL] = (double)t[reps / 2] / 1e6;
-        count[T_MAXPOOL] = 1;
-        free(x);
-        free(o);
-        free(t);
+    /* every conv of the network's graph at H x W (N = 3, 3 bands, fc 512) */
+    const pl_net_shape shape = {3, H, W, 3, 512, 256, {0, 0, 0}, {1, 1, 1}};
+    static pl_graph g;
+    if (pl_graph_build(&shape, &g) < 0) {
+        fprintf(stderr, "%s\n", pl_last_error());
+        return 1;
     }
-    int h = H / 4, w = W / 4;
-    for (int b = 0; b < N_BLOCKS; b++) {
-        const int ctot = block_c0[b] + GROWTH * block_layers[b];
-        for (int l = 0; l < block_layers[b]; l++) {
-            bench_conv(K, T_CONV1, h, w, block_c0[b] + GROWTH * l, ctot, BOTTLENECK, 1, 1, 0, 1, 0);
-            bench_conv(K, T_CONV2, h, w, BOTTLENECK, BOTTLENECK, GROWTH, 3, 1, 1, 0, 0);
-        }
-        if (b < N_BLOCKS - 1) {
-            bench_conv(K, T_TRANS, h, w, ctot, ctot, ctot / 2, 1, 1, 0, 0, 1);
-            h /= 2;
-            w /= 2;
-        }
+    for (int i = 0; i < g.n_nodes; i++) {
+        const pl_gnode *n = &g.nodes[i];
+        const int cs = g.tensors[n->in].c, p = n->pad;
+        if (n->op == PL_NODE_FC)
+            bench_conv(K, T_FC, 1, 1, n->in_c, n->in_c, n->out_c, 1, 1, 0, 0, 0);
+        if (n->op == PL_NODE_MAXPOOL) bench_maxpool(K, n, g.tensors[n->out].c);
+        if (n->op != PL_NODE_CONV) continue;
+        if (n->in == g.input) /* the input arrives padded */
+            bench_conv(K, T_STEM, n->in_h + 2 * p, n->in_w + 2 * p, n->in_c, cs, n->out_c, n->k,
+                       n->stride, 0, 0, 0);
+        else if (n->pool2)
+            bench_conv(K, T_TRANS, n->in_h, n->in_w, n->in_c, cs, n->out_c, 1, 1, 0, 0, 1);
+        else
+            bench_conv(K, n->norm[0] ? T_CONV1 : T_CONV2, n->in_h, n->in_w, n->in_c, cs, n->out_c,
+                       n->k, n->stride, p, n->norm[0] != 0, 0);
     }
-    bench_conv(K, T_FC, 1, 1, FEATURES * 3, FEATURES * 3, 512, 1, 1, 0, 0, 0);
 
     printf("path %s (%s), %d x %d, median of %d runs per layer, 1 thread\n", pl_isa_name(k->isa),
            K->run_name, H, W, reps);
@@ -197,8 +211,8 @@ int main(int argc, char **argv)
            "GMAC/s");
     double sa = 0, sr = 0, sm = 0;
     for (int i = 0; i < T_COUNT; i++) {
-        printf("%-26s %6d %9.1f %9.3f %9.3f %9.1f\n", tname[i], count[i], mmac[i], t_a[i],
-               t_run[i], t_run[i] > 0 && mmac[i] > 0 ? mmac[i] / t_run[i] : 0.0);
+        printf("%-26s %6d %9.1f %9.3f %9.3f %9.1f\n", tname[i], count[i], mmac[i], t_a[i], t_run[i],
+               t_run[i] > 0 && mmac[i] > 0 ? mmac[i] / t_run[i] : 0.0);
         sa += t_a[i];
         sr += t_run[i];
         sm += mmac[i];

@@ -25,6 +25,7 @@
 #include "core/json.h"
 #include "core/util.h"
 #include "kernels/ref/nn_ref_s8.h"
+#include "port/json_file.h"
 
 #define MAX_DEPTH 16 /* directory nesting (also stops symlink loops) */
 

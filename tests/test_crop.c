@@ -17,6 +17,7 @@
 #include "light/lights_json.h"
 #include "port/hdr_io.h"
 #include "port/image.h"
+#include "port/json_file.h"
 #include "tests/check.h"
 
 static void dir_of(double yaw_deg, double pitch_deg, float d[3])

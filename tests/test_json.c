@@ -11,6 +11,7 @@
 #include "core/json.h"
 #include "core/util.h"
 #include "light/lights_json.h"
+#include "port/json_file.h"
 #include "light_test.h"
 
 static int parse(const char *s, pl_json_doc *d)

@@ -12,6 +12,7 @@
 #include "core/util.h"
 #include "light/light.h"
 #include "light/ridge.h"
+#include "port/json_file.h"
 
 #define GOLDEN_DIR "tests/data/ridge"
 
