@@ -26,9 +26,12 @@ typedef struct pl_image_f32 {
 } pl_image_f32;
 
 /* Largest image any reader accepts, per side and in pixels: bigger declared sizes are rejected
- * before any allocation (a guard against hostile headers). */
+ * before any allocation (a guard against hostile headers). The fuzz build (make fuzz) defines a
+ * smaller PL_IMAGE_MAX_PIXELS, so that a legal but huge image is not an out-of-memory "crash". */
 #define PL_IMAGE_MAX_SIDE 32768
+#ifndef PL_IMAGE_MAX_PIXELS
 #define PL_IMAGE_MAX_PIXELS (256u * 1024u * 1024u)
+#endif
 
 /* Allocates width x height pixels (rows packed: stride = 3*width for u8). Sizes must be in
  * 1..PL_IMAGE_MAX_SIDE with width*height <= PL_IMAGE_MAX_PIXELS, else PL_E_ARG; PL_E_NOMEM when
