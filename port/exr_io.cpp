@@ -6,6 +6,7 @@
 #ifdef PL_HAVE_OPENEXR
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wunused-parameter" /* clang, in ImfAttribute.h */
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -15,7 +16,9 @@
 #include <ImfTestFile.h>
 #pragma GCC diagnostic pop
 
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -105,6 +108,72 @@ int read_yc(const char *path, int w, int h, pl_image_f32 *out)
     return PL_OK;
 }
 
+// OpenEXR 3.1 allocates an attribute's declared size before reading it, so a 71-byte file that
+// declares a 1.6 GB "channels" attribute costs 1.6 GB (found by tests/fuzz/fuzz_exr.c). Walks
+// the header(s) first: every attribute's size must fit in what is left of the file.
+int check_attribute_sizes(const char *path)
+{
+    FILE *f = std::fopen(path, "rb");
+    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, std::strerror(errno));
+    int st = PL_OK;
+    long long file_size = -1;
+    unsigned char head[8];
+    if (std::fseek(f, 0, SEEK_END) == 0) file_size = std::ftell(f);
+    if (file_size < 8 || std::fseek(f, 0, SEEK_SET) != 0 || std::fread(head, 1, 8, f) != 8) {
+        std::fclose(f);
+        return pl_error(PL_E_FORMAT, "%s: truncated OpenEXR header", path);
+    }
+    const bool multipart = head[5] & 0x10;
+    const int name_max = (head[5] & 0x04) ? 256 : 32; // long names: 255 bytes + NUL
+    long long pos = 8;
+    bool header_empty = true;
+    for (;;) {
+        char name[2][256];
+        for (int k = 0; k < 2; k++) { // attribute name, then type name
+            int n = 0, c;
+            while ((c = std::fgetc(f)) > 0 && n < name_max - 1)
+                name[k][n++] = (char)c;
+            name[k][n] = '\0';
+            pos += n + 1;
+            if (c != 0) {
+                st = pl_error(PL_E_FORMAT, "%s: OpenEXR header ends or a name is too long at %lld",
+                              path, pos);
+                goto out;
+            }
+            if (k == 0 && n == 0) break;
+        }
+        if (!name[0][0]) { // the end of a header
+            if (!multipart || header_empty) break;
+            header_empty = true;
+            continue;
+        }
+        header_empty = false;
+        unsigned char sz[4];
+        if (std::fread(sz, 1, 4, f) != 4) {
+            st = pl_error(PL_E_FORMAT, "%s: OpenEXR header truncated in attribute '%s'", path,
+                          name[0]);
+            goto out;
+        }
+        pos += 4;
+        const long long size = (long long)(int32_t)((uint32_t)sz[0] | (uint32_t)sz[1] << 8 |
+                                                    (uint32_t)sz[2] << 16 | (uint32_t)sz[3] << 24);
+        if (size < 0 || size > file_size - pos) {
+            st = pl_error(PL_E_FORMAT,
+                          "%s: OpenEXR attribute '%s' (%s) declares %lld bytes, %lld left", path,
+                          name[0], name[1], size, file_size - pos);
+            goto out;
+        }
+        if (std::fseek(f, (long)size, SEEK_CUR) != 0) {
+            st = pl_error(PL_E_IO, "%s: cannot seek: %s", path, std::strerror(errno));
+            goto out;
+        }
+        pos += size;
+    }
+out:
+    std::fclose(f);
+    return st;
+}
+
 } // namespace
 
 extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)
@@ -114,6 +183,8 @@ extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)
     pl_image_f32 img = {0, 0, nullptr};
     try {
         bool tiled = false, deep = false, multipart = false;
+        int st0 = check_attribute_sizes(path);
+        if (st0 < 0) return st0;
         if (!Imf::isOpenExrFile(path, tiled, deep, multipart))
             return pl_error(PL_E_FORMAT, "%s: not an OpenEXR file", path);
         if (deep)
@@ -223,7 +294,8 @@ extern "C" {
 extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)
 {
     if (out) *out = pl_image_f32{0, 0, nullptr};
-    return pl_error(PL_E_UNSUPPORTED, "%s: this build has no OpenEXR: cannot read .exr (.hdr works)",
+    return pl_error(PL_E_UNSUPPORTED,
+                    "%s: this build has no OpenEXR: cannot read .exr (.hdr works)",
                     path ? path : "EXR");
 }
 
