@@ -21,9 +21,7 @@ BOARD ?= host
 # SAN=1: every object, the library, the CLI, the plugins and the tests are built with ASan and
 #   UBSan (any undefined behaviour aborts) into build-san/, never mixed with build/.
 # FUZZ=1 (what `make fuzz` sets): clang with -fsanitize=fuzzer-no-link,address,undefined into
-#   build/fuzz/, host only, without OpenCV and libcamera (their plugins are not what is fuzzed);
-#   images are limited to 4 Mpixel there so that a small input declaring a legal but huge image
-#   does not count as an out-of-memory crash under libFuzzer's 2 GiB limit.
+#   build/fuzz/, host only, without OpenCV and libcamera (their plugins are not what is fuzzed).
 SAN  ?= 0
 FUZZ ?= 0
 SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
@@ -36,7 +34,7 @@ CXX := clang++
 WITH_OPENCV    := 0
 WITH_LIBCAMERA := 0
 SAN_FLAGS := -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer \
-             -fno-sanitize-recover=undefined -DPL_IMAGE_MAX_PIXELS='(4u * 1024u * 1024u)'
+             -fno-sanitize-recover=undefined
 BUILD := build/fuzz
 else ifneq ($(SAN),1)
 SAN_FLAGS :=

@@ -46,7 +46,9 @@ static void help(FILE *f)
            "                  median_cpu_ms (CPU time of all threads per frame),\n"
            "                  gmac_per_frame, gmac_per_s, peak_rss_kib (with --layers:\n"
            "                  stage_clock (wall or thread_cpu) and stages, [{stage,\n"
-           "                  median_ms, min_ms}] in network order)\n\n"
+           "                  median_ms, min_ms}] in network order)\n"
+           "  --max-pixels N  an --input of up to N pixels (default 67108864 = 64 Mi; at most\n"
+           "                  268435456)\n\n"
            "GMAC counts the multiply-accumulates of the DenseNet-121 graph as written (transition\n"
            "convolutions before their pooling, as PyTorch runs them), the FC and the heads, from\n"
            "the model's input size and metadata: 2.777 GMAC at 192 x 256 (2.775 of it in the\n"
@@ -178,13 +180,17 @@ static void json_string(const char *s)
 
 int cmd_bench(int argc, char **argv)
 {
-    static const struct option opts[] = {
-        {"model", required_argument, 0, 'm'}, {"threads", required_argument, 0, 't'},
-        {"runs", required_argument, 0, 'r'},  {"warmup", required_argument, 0, 'w'},
-        {"input", required_argument, 0, 'i'}, {"json", no_argument, 0, 'j'},
-        {"layers", no_argument, 0, 'l'},      {"layers-cpu", no_argument, 0, 'L'},
-        {"help", no_argument, 0, 'h'},
-        {0, 0, 0, 0}};
+    static const struct option opts[] = {{"model", required_argument, 0, 'm'},
+                                         {"threads", required_argument, 0, 't'},
+                                         {"runs", required_argument, 0, 'r'},
+                                         {"warmup", required_argument, 0, 'w'},
+                                         {"input", required_argument, 0, 'i'},
+                                         {"json", no_argument, 0, 'j'},
+                                         {"layers", no_argument, 0, 'l'},
+                                         {"layers-cpu", no_argument, 0, 'L'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL;
     int threads = 1, runs = 30, warmup = 3, json = 0, layers = 0, c;
     opterr = 0;
@@ -213,6 +219,9 @@ int cmd_bench(int argc, char **argv)
             break;
         case 'L':
             layers = 2;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("bench", optarg) < 0) return 2;
             break;
         case 'h':
             help(stdout);

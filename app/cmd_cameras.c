@@ -133,8 +133,7 @@ static int read_v4l2(void *cam, pl_image_u8 *img, size_t *capacity, int64_t *t_n
     return pl_v4l2_read(cam, img, capacity, t_ns, index);
 }
 
-static int read_libcam(void *cam, pl_image_u8 *img, size_t *capacity, int64_t *t_ns,
-                       int64_t *index)
+static int read_libcam(void *cam, pl_image_u8 *img, size_t *capacity, int64_t *t_ns, int64_t *index)
 {
     return pl_libcam_read(cam, img, capacity, t_ns, index);
 }
@@ -288,8 +287,7 @@ int cmd_cameras(int argc, char **argv)
         snprintf(path, sizeof path, "/dev/video%d", nums[i]);
         if (list_one(path) == 1) found++;
     }
-    if (!found)
-        printf("V4L2: no capture device%s\n", n ? "" : " (no /dev/video* node)");
+    if (!found) printf("V4L2: no capture device%s\n", n ? "" : " (no /dev/video* node)");
     found += list_libcamera();
     if (!found) {
         fprintf(stderr, "parlight cameras: no camera found\n");

@@ -26,6 +26,8 @@ static void usage(FILE *f)
             "  --sphere M   diffuse (default) or glossy\n"
             "  --size S     render size in pixels (default 64)\n"
             "  --json       print one JSON object instead of text\n"
+            "  --max-pixels N panoramas of up to N pixels (default 67108864 = 64 Mi; at most "
+            "268435456)\n"
             "  -h, --help   this text\n");
 }
 
@@ -55,6 +57,7 @@ int cmd_compare(int argc, char **argv)
     static const struct option opts[] = {{"sphere", required_argument, 0, 's'},
                                          {"size", required_argument, 0, 'S'},
                                          {"json", no_argument, 0, 'j'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     pl_material m = PL_MATERIAL_DIFFUSE;
@@ -89,6 +92,9 @@ int cmd_compare(int argc, char **argv)
         }
         case 'j':
             json = 1;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("compare", optarg) < 0) return 2;
             break;
         case 'h':
             usage(stdout);

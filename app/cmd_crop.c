@@ -64,6 +64,8 @@ static void usage(FILE *f)
         "  --quality Q         JPEG quality 1..100 (default 90)\n"
         "  --max-lights K      keep at most K extracted lights (default %d)\n"
         "  --force             overwrite existing outputs\n"
+        "  --max-pixels N      panoramas of up to N pixels (default 67108864 = 64 Mi; at most "
+        "268435456)\n"
         "  -h, --help          this text\n",
         PL_MAX_LIGHTS);
 }
@@ -253,14 +255,13 @@ static int read_list(const char *path, list_item **items, int *n)
         snprintf(where, sizeof where, "line %d", line_no);
         if (!*fld[0] || !*fld[1] || strlen(fld[0]) >= sizeof it->out ||
             strlen(fld[1]) >= sizeof it->gt) {
-            fprintf(stderr, "parlight crop: %s:%d: empty or too long output name\n", path,
-                    line_no);
+            fprintf(stderr, "parlight crop: %s:%d: empty or too long output name\n", path, line_no);
             rc = -1;
             break;
         }
         if (!(has_ext(fld[0], ".png") || has_ext(fld[0], ".jpg") || has_ext(fld[0], ".jpeg"))) {
-            fprintf(stderr, "parlight crop: %s:%d: %s: expected a .png, .jpg or .jpeg name\n",
-                    path, line_no, fld[0]);
+            fprintf(stderr, "parlight crop: %s:%d: %s: expected a .png, .jpg or .jpeg name\n", path,
+                    line_no, fld[0]);
             rc = -1;
             break;
         }
@@ -271,8 +272,10 @@ static int read_list(const char *path, list_item **items, int *n)
             pl_app_double("crop", where, fld[4], 1, 170, &it->fov) < 0 ||
             pl_app_double("crop", where, fld[5], -20, 20, &it->exposure) < 0 ||
             pl_app_double("crop", where, fld[6], 0.2, 5, &it->gamma) < 0) {
-            fprintf(stderr, "parlight crop: %s:%d: bad number (fields 3-7: yaw pitch fov exposure "
-                            "gamma)\n", path, line_no);
+            fprintf(stderr,
+                    "parlight crop: %s:%d: bad number (fields 3-7: yaw pitch fov exposure "
+                    "gamma)\n",
+                    path, line_no);
             rc = -1;
             break;
         }
@@ -314,6 +317,7 @@ int cmd_crop(int argc, char **argv)
                                          {"quality", required_argument, 0, 'q'},
                                          {"max-lights", required_argument, 0, 'k'},
                                          {"force", no_argument, 0, 'f'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *hdr = NULL, *out = NULL, *gt = NULL, *dir = NULL, *fmt = "png", *list = NULL;
@@ -388,6 +392,9 @@ int cmd_crop(int argc, char **argv)
         case 'f':
             force = 1;
             break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("crop", optarg) < 0) return 2;
+            break;
         case 'h':
             usage(stdout);
             return 0;
@@ -432,7 +439,8 @@ int cmd_crop(int argc, char **argv)
         fprintf(stderr, "parlight crop: --out FILE is required (or --batch N --out-dir DIR)\n");
         return 2;
     }
-    if (!batch && !list && !(has_ext(out, ".png") || has_ext(out, ".jpg") || has_ext(out, ".jpeg"))) {
+    if (!batch && !list &&
+        !(has_ext(out, ".png") || has_ext(out, ".jpg") || has_ext(out, ".jpeg"))) {
         fprintf(stderr, "parlight crop: --out %s: expected a .png, .jpg or .jpeg name\n", out);
         return 2;
     }

@@ -10,9 +10,12 @@
 
 #include "app/cli.h"
 #include "app/commands.h"
+#include "app/poses.h"
+#include "core/ratelimit.h"
 #include "core/util.h"
 #include "light/light.h"
 #include "light/lights_json.h"
+#include "light/pose.h"
 #include "light/temporal.h"
 #include "parlight.h"
 #include "port/capture.h"
@@ -24,7 +27,10 @@ static void help(FILE *f)
     fprintf(f,
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
-            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n\n"
+            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n"
+            "                         [--loop] [--wait-clients N] [--max-clients N]\n"
+            "                         [--unix-mode MODE] [--token-file F] [--max-pixels N]\n"
+            "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n\n"
             "Estimates N lights and the ambient term for every frame of PATH: a still image\n"
             "(JPEG, PNG, BMP, TIFF), a video file, or a directory of frames (read in name order;\n"
             "unreadable files are skipped with a warning and counted). Prints one JSON object per\n"
@@ -44,23 +50,91 @@ static void help(FILE *f)
             "  --out SPEC      where the JSON lines go, repeatable (up to 8): stdout (default),\n"
             "                  udp://HOST:PORT, tcp://[HOST]:PORT (a server, loopback unless HOST\n"
             "                  is given), unix:PATH (docs/OUTPUT.md, \"Streaming\")\n"
+            "  --max-clients N readers at once per tcp/unix server, 1..1024 (default 16); one\n"
+            "                  more is told why and closed\n"
+            "  --unix-mode MODE permission bits of unix: sockets, octal (default 600: owner only;\n"
+            "                  660 adds the file's group)\n"
+            "  --token-file F  tcp/unix readers must first send the token in F (its first line)\n"
+            "                  and a newline; F must not be readable by every user\n"
             "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
             "                  frames that arrive while the network is busy are dropped and\n"
             "                  counted in \"dropped\" (cameras always run this way)\n"
             "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
+            "  --orientation W,X,Y,Z  camera-to-world rotation (unit quaternion) of a fixed camera:\n"
+            "                  lights, primary, sh9, engine and --at in world space\n"
+            "  --gravity X,Y,Z gravity measured in the camera frame (an IMU): world space with y\n"
+            "                  up, yaw following the camera\n"
+            "  --poses FILE    a camera-to-world quaternion per frame, JSON lines keyed by \"frame\"\n"
+            "                  or \"t_ns\" (docs/OUTPUT.md, \"World space\")\n"
+            "  --loop          --input only: start again at the end (frame numbers go on), until\n"
+            "                  --n-frames or a signal\n"
+            "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
+            "                  tcp/unix servers (a replay is not over before a viewer connects)\n"
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
-            "                  (docs/LIGHTING.md, \"Intensity anchor\")\n\n"
-            "SIGINT or SIGTERM finishes the frame in flight, flushes the outputs and exits 0.\n");
+            "                  (docs/LIGHTING.md, \"Intensity anchor\")\n"
+            "  --max-pixels N  images of up to N pixels (default 67108864 = 64 Mi; at most\n"
+            "                  268435456): larger files are refused before decoding\n\n"
+            "SIGINT or SIGTERM finishes the frame in flight (if any), flushes the outputs,\n"
+            "removes a unix: socket and exits 0, also when it comes during start-up.\n"
+            "SIGHUP reloads the model from the same path between two frames; a file that does\n"
+            "not load leaves the current model running (docs/OUTPUT.md, \"Signals\").\n");
 }
 
-static volatile sig_atomic_t stop_requested;
+static volatile sig_atomic_t stop_requested, reload_requested;
 
-static void on_stop_signal(int sig)
+static void on_signal(int sig)
 {
-    (void)sig;
-    stop_requested = 1;
+    if (sig == SIGHUP)
+        reload_requested = 1;
+    else
+        stop_requested = 1;
+}
+
+/* SIGINT and SIGTERM ask the loop to stop, SIGHUP to reload the model; the handlers only set a
+ * flag, so they can be installed before anything else and the work happens between frames. */
+static void install_signals(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal; /* no SA_RESTART: a blocking read returns EINTR */
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+}
+
+/* Loads the model at `path` with the run's settings; on failure pl_last_error() says why and
+ * *out is NULL. */
+static int load_model(const char *path, int threads, const double *anchor, pl_model **out)
+{
+    int rc = pl_model_load(path, out);
+    if (rc == PL_OK) rc = pl_model_set_threads(*out, threads);
+    if (rc == PL_OK && anchor) rc = pl_model_set_anchor(*out, anchor[0], anchor[1], anchor[2]);
+    if (rc < 0) {
+        pl_model_free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
+/* SIGHUP: the model is loaded anew from `path` (a new file renamed over it, or the same file),
+ * verified, and replaces *model; the temporal filter starts again, as the new model's lights
+ * have nothing to do with the old ones. A file that does not load leaves *model as it was. */
+static void reload_model(const char *path, int threads, const double *anchor, float alpha,
+                         pl_model **model, pl_smoother *smoother)
+{
+    pl_model *fresh;
+    if (load_model(path, threads, anchor, &fresh) < 0) {
+        fprintf(stderr, "parlight estimate: SIGHUP: keeping the current model: %s\n",
+                pl_last_error());
+        return;
+    }
+    pl_model_free(*model);
+    *model = fresh;
+    pl_smoother_init(smoother, alpha);
+    fprintf(stderr, "parlight estimate: SIGHUP: model reloaded from %s\n", path);
 }
 
 /* Sleeps until the monotonic time `until_ns`, waking early on a stop request. */
@@ -70,6 +144,44 @@ static void wait_until(int64_t until_ns)
         int64_t left = until_ns - pl_now_ns();
         if (left <= 0) return;
         struct timespec ts = {0, (long)(left < 50000000 ? left : 50000000)};
+        nanosleep(&ts, NULL);
+    }
+}
+
+/* Sink warnings and events: LOG_BURST lines per LOG_WINDOW_NS of each kind, then a count. */
+#define LOG_BURST 5
+#define LOG_WINDOW_NS 10000000000LL
+
+static void log_held(pl_ratelimit *r, const char *what)
+{
+    long long held = pl_ratelimit_take_held(r);
+    if (held)
+        fprintf(stderr, "parlight estimate: %lld more %s like the above not shown\n", held, what);
+}
+
+static void log_limited(pl_ratelimit *r, const char *prefix, const char *msg)
+{
+    long long held;
+    int show = pl_ratelimit_allow(r, pl_now_ns(), &held);
+    if (held)
+        fprintf(stderr, "parlight estimate: %lld more like the above in the last %lld s not shown\n",
+                held, (long long)(r->window_ns / 1000000000LL));
+    if (show) fprintf(stderr, "parlight estimate: %s%s\n", prefix, msg);
+}
+
+/* --wait-clients: services the servers until n readers are admitted. -1 if a signal came. */
+static int wait_for_readers(pl_sinks *sinks, int n, pl_ratelimit *event_limit)
+{
+    fprintf(stderr, "parlight estimate: waiting for %d reader%s before the first frame\n", n,
+            n == 1 ? "" : "s");
+    char event[512];
+    for (;;) {
+        int have = pl_sinks_service(sinks);
+        while (pl_sinks_next_event(sinks, event, sizeof event))
+            log_limited(event_limit, "", event);
+        if (have >= n) return 0;
+        if (stop_requested) return -1;
+        struct timespec ts = {0, 20000000};
         nanosleep(&ts, NULL);
     }
 }
@@ -86,43 +198,6 @@ static int finite_lighting(const pl_lighting *L)
     return isfinite(L->ambient[0]) && isfinite(L->ambient[1]) && isfinite(L->ambient[2]);
 }
 
-/* Writes one JSON line for a frame; returns 0, or -1 when the line does not fit (a bug). */
-static int format_line(char *buf, size_t cap, int64_t frame, int64_t t_ns, const char *source,
-                       const pl_lighting *L, const pl_timing *tm, double total_ms,
-                       double latency_ms, int64_t dropped)
-{
-    size_t n = 0;
-    int w;
-#define PUT(...)                                                                                   \
-    do {                                                                                           \
-        w = snprintf(buf + n, cap - n, __VA_ARGS__);                                               \
-        if (w < 0 || (size_t)w >= cap - n) return -1;                                              \
-        n += (size_t)w;                                                                            \
-    } while (0)
-    PUT("{\"frame\":%lld,\"t_ns\":%lld,\"source\":\"", (long long)frame, (long long)t_ns);
-    for (const char *s = source; *s; s++) { /* JSON string escaping of the path */
-        unsigned char ch = (unsigned char)*s;
-        if (ch == '"' || ch == '\\') PUT("\\%c", ch);
-        else if (ch < 0x20) PUT("\\u%04x", ch);
-        else PUT("%c", ch);
-    }
-    PUT("\",");
-    w = pl_lighting_format_json(L, buf + n, cap - n);
-    if (w < 0) return -1;
-    n += (size_t)w;
-    float dir[3], rgb[3], sh[27];
-    pl_lighting_primary(L, dir, rgb);
-    pl_sh9_from_lights(L, sh);
-    PUT(",\"primary\":{\"dir\":[%.6g,%.6g,%.6g],\"rgb\":[%.6g,%.6g,%.6g]},\"sh9\":[", (double)dir[0],
-        (double)dir[1], (double)dir[2], (double)rgb[0], (double)rgb[1], (double)rgb[2]);
-    for (int k = 0; k < 27; k++) PUT("%s%.6g", k ? "," : "", (double)sh[k]);
-    PUT("],\"timing_ms\":{\"preprocess\":%.3f,\"infer\":%.3f,\"total\":%.3f", tm->preprocess_ms,
-        tm->infer_ms, total_ms);
-    if (latency_ms >= 0) PUT(",\"latency\":%.3f", latency_ms);
-    PUT("},\"dropped\":%lld}\n", (long long)dropped);
-#undef PUT
-    return 0;
-}
 
 int cmd_estimate(int argc, char **argv)
 {
@@ -137,18 +212,35 @@ int cmd_estimate(int argc, char **argv)
                                          {"realtime", no_argument, 0, 'r'},
                                          {"fps-cap", required_argument, 0, 'f'},
                                          {"anchor", required_argument, 0, 'A'},
+                                         {"max-clients", required_argument, 0, 'M'},
+                                         {"unix-mode", required_argument, 0, 'U'},
+                                         {"token-file", required_argument, 0, 'T'},
+                                         {"loop", no_argument, 0, 'L'},
+                                         {"orientation", required_argument, 0, 'O'},
+                                         {"gravity", required_argument, 0, 'G'},
+                                         {"poses", required_argument, 0, 'P'},
+                                         {"wait-clients", required_argument, 0, 'W'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *input = NULL, *camera = NULL;
     int n_frames = 0, threads = 1, have_at = 0, c;
     float at[3] = {0, 0, 0}, alpha = -1.0f;
     double fps_cap = 0.0;
-    int realtime = 0, have_anchor = 0;
+    int realtime = 0, have_anchor = 0, loop = 0, wait_clients = 0;
+    int have_orient = 0, n_pose_flags = 0;
+    double fixed_q[4], fixed_R[9];
+    const char *poses_path = NULL;
+    cli_poses poses = {0};
     double anchor[3];
     const char *outs[PL_SINKS_MAX];
     int n_outs = 0;
+    pl_sink_options sink_opts = {0, 0, NULL, 0};
+    const char *token_file = NULL;
+    char token[PL_SINK_TOKEN_MAX + 1];
+    install_signals(); /* first: a service may be stopped while it loads (issue 25) */
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":m:i:C:n:t:a:s:o:rf:A:M:U:T:LW:O:G:P:h", opts, NULL)) != -1) {
         switch (c) {
         case 'm': model_path = optarg; break;
         case 'i': input = optarg; break;
@@ -191,6 +283,52 @@ int cmd_estimate(int argc, char **argv)
             }
             outs[n_outs++] = optarg;
             break;
+        case 'M':
+            if (cli_int("estimate", "--max-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
+                        &sink_opts.max_clients) < 0)
+                return 2;
+            break;
+        case 'U': {
+            char *end;
+            unsigned long m = strtoul(optarg, &end, 8);
+            if (end == optarg || *end || m > 0777 || !(m & 0200)) {
+                fprintf(stderr, "parlight estimate: --unix-mode '%s': expected octal permission "
+                                "bits with the owner's write bit (600, 660, 666)\n", optarg);
+                return 2;
+            }
+            sink_opts.unix_mode = (unsigned)m;
+            break;
+        }
+        case 'T': token_file = optarg; break;
+        case 'L': loop = 1; break;
+        case 'O':
+            if (cli_quat("estimate", optarg, fixed_q) < 0) return 2;
+            have_orient = 1;
+            n_pose_flags++;
+            break;
+        case 'G': {
+            float g[3];
+            if (cli_float3("estimate", "--gravity", optarg, g) < 0) return 2;
+            if (pl_rotation_from_gravity(g, fixed_R, fixed_q) < 0) {
+                fprintf(stderr, "parlight estimate: --gravity: %s\n", pl_last_error());
+                return 2;
+            }
+            have_orient = 1;
+            n_pose_flags++;
+            break;
+        }
+        case 'P':
+            poses_path = optarg;
+            n_pose_flags++;
+            break;
+        case 'W':
+            if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
+                        &wait_clients) < 0)
+                return 2;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("estimate", optarg) < 0) return 2;
+            break;
         case 'h': help(stdout); return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
@@ -209,6 +347,27 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: --input and --camera exclude each other\n");
         return 2;
     }
+    if (n_pose_flags > 1) {
+        fprintf(stderr, "parlight estimate: --orientation, --gravity and --poses exclude each "
+                        "other\n");
+        return 2;
+    }
+    if (have_orient && pl_quat_to_rotation(fixed_q, fixed_R) < 0) {
+        fprintf(stderr, "parlight estimate: --orientation: %s\n", pl_last_error());
+        return 2;
+    }
+    if (loop && camera) {
+        fprintf(stderr, "parlight estimate: --loop replays files; a camera does not end\n");
+        return 2;
+    }
+    int n_servers = 0;
+    for (int i = 0; i < n_outs; i++)
+        n_servers += !strncmp(outs[i], "tcp:", 4) || !strncmp(outs[i], "unix:", 5);
+    if (wait_clients && !n_servers) {
+        fprintf(stderr, "parlight estimate: --wait-clients needs a server to connect to: --out "
+                        "tcp://HOST:PORT or unix:PATH\n");
+        return 2;
+    }
 
     pl_model *model = NULL;
     pl_source *src = NULL;
@@ -221,40 +380,66 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: --smooth: %s\n", pl_last_error());
         return 2;
     }
-    int st_open = pl_sinks_open(outs, n_outs, &sinks);
+    long long done = 0, skipped = 0, done_at_pass = 0;
+    int64_t frame_base = 0, pass_frames = 0; /* --loop: frame numbers go on across passes */
+    pl_ratelimit warn_limit, event_limit;    /* a storm prints a few lines and a count */
+    pl_ratelimit_init(&warn_limit, LOG_BURST, LOG_WINDOW_NS);
+    pl_ratelimit_init(&event_limit, LOG_BURST, LOG_WINDOW_NS);
+    if (token_file) {
+        if (cli_read_token("estimate", token_file, token, sizeof token) < 0) return 2;
+        sink_opts.token = token;
+    }
+    /* a stop request is honoured between the steps of start-up as between frames: each step
+     * may take a while (model load, camera open) and every exit goes through `out` */
+    if (stop_requested) goto stopped;
+    if (poses_path && cli_poses_load(poses_path, &poses) < 0) {
+        fprintf(stderr, "parlight estimate: --poses %s\n", pl_last_error());
+        return 2;
+    }
+    int st_open = pl_sinks_open(outs, n_outs, &sink_opts, &sinks);
     if (st_open < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
-        return st_open == PL_E_ARG ? 2 : 1;
+        rc = st_open == PL_E_ARG ? 2 : 1;
+        goto out;
     }
-    if (pl_model_load(model_path, &model) < 0 || pl_model_set_threads(model, threads) < 0 ||
-        (have_anchor && pl_model_set_anchor(model, anchor[0], anchor[1], anchor[2]) < 0)) {
+    for (int i = 0; i < pl_sinks_count(sinks); i++) { /* where readers connect (port 0 too) */
+        const pl_sink *k = pl_sinks_get(sinks, i);
+        if (!strncmp(pl_sink_spec(k), "tcp:", 4) || !strncmp(pl_sink_spec(k), "unix:", 5))
+            fprintf(stderr, "parlight estimate: %s: listening on %s%s\n", pl_sink_spec(k),
+                    pl_sink_address(k), sink_opts.token ? " (readers send the token first)" : "");
+    }
+    if (stop_requested) goto stopped;
+    reload_requested = 0; /* a SIGHUP before the first load asks for what it is about to read */
+    if (load_model(model_path, threads, have_anchor ? anchor : NULL, &model) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
+    if (stop_requested) goto stopped;
     if ((camera ? pl_source_open_camera(camera, &src) : pl_source_open_path(input, &src)) < 0) {
+        if (stop_requested) goto stopped; /* an open interrupted by the signal */
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
+    if (stop_requested) goto stopped;
+    if (wait_clients && wait_for_readers(sinks, wait_clients, &event_limit) < 0) goto stopped;
     /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
      * newest frame wins and the ones replaced unseen are counted in "dropped" */
     if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_stop_signal; /* no SA_RESTART: a blocking read returns EINTR */
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
 
-    long long done = 0, skipped = 0;
     int64_t prev_t_ns = 0, last_start = 0;
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
         if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap));
         if (stop_requested) break;
+        if (reload_requested) {
+            reload_requested = 0;
+            reload_model(model_path, threads, have_anchor ? anchor : NULL, alpha, &model,
+                         &smoother);
+        }
         pl_frame fr;
         int64_t dropped = 0;
         int st;
@@ -270,6 +455,28 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
             goto out;
         }
+        if (st == PL_E_EOF && loop) { /* again from the start, numbering on */
+            if (done == done_at_pass) {
+                fprintf(stderr, "parlight estimate: --loop: no usable frame in a whole pass of %s\n",
+                        input);
+                goto out;
+            }
+            pl_capture_stop(cap); /* the source's counts are final once capture stopped */
+            int64_t good = 0, bad = 0;
+            pl_source_counts(src, &good, &bad);
+            frame_base += good + bad > pass_frames ? good + bad : pass_frames;
+            pass_frames = 0;
+            done_at_pass = done;
+            cap = NULL;
+            pl_source_close(src);
+            src = NULL;
+            if (pl_source_open_path(input, &src) < 0 ||
+                (realtime && pl_capture_start(src, realtime, &cap) < 0)) {
+                fprintf(stderr, "parlight estimate: --loop: %s\n", pl_last_error());
+                goto out;
+            }
+            continue;
+        }
         if (st == PL_E_EOF) break;
         if (st < 0) { /* one bad frame (a corrupt file in a directory): skipped and counted */
             fprintf(stderr, "parlight estimate: warning: skipping frame: %s\n", pl_last_error());
@@ -283,9 +490,24 @@ int cmd_estimate(int argc, char **argv)
         double dt_s = done ? (double)(fr.t_ns - prev_t_ns) / 1e9 : 0.0;
         if (done && !(dt_s > 0.0 && dt_s <= 10.0)) dt_s = 1.0 / 30.0;
         prev_t_ns = fr.t_ns;
-        if (pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
-                             fr.image.stride, &L, &tm) < 0 ||
-            pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
+        /* world space (--orientation, --gravity, --poses): turned before the filter, so that
+         * turning the camera does not smear the lights; --at is then in world axes */
+        double q[4], R[9];
+        const double *orient = have_orient ? fixed_q : NULL;
+        if (poses.n) {
+            if (cli_poses_lookup(&poses, frame_base + fr.index, fr.t_ns, q) < 0 ||
+                pl_quat_to_rotation(q, R) < 0) {
+                fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
+                goto out;
+            }
+            orient = q;
+        } else if (have_orient) {
+            memcpy(R, fixed_R, sizeof R);
+        }
+        int est = pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
+                                   fr.image.stride, &L, &tm);
+        if (est == 0 && orient) pl_lighting_rotate(&L, R, &L);
+        if (est < 0 || pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {
             fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
             goto out;
@@ -303,8 +525,10 @@ int cmd_estimate(int argc, char **argv)
             snprintf(source, sizeof source, "%s", desc);
         /* cameras stamp frames with CLOCK_MONOTONIC, pl_now_ns's clock: capture to this line */
         const double latency_ms = camera ? (double)(pl_now_ns() - fr.t_ns) / 1e6 : -1.0;
-        if (format_line(line, sizeof line, fr.index, fr.t_ns, source, &L, &tm, total_ms,
-                        latency_ms, dropped) < 0) {
+        if (fr.index + 1 > pass_frames) pass_frames = fr.index + 1;
+        const pl_frame_meta meta = {frame_base + fr.index, fr.t_ns, source, orient,
+                                    tm, total_ms, latency_ms, dropped};
+        if (pl_frame_format_json(&meta, &L, line, sizeof line) < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
@@ -313,10 +537,10 @@ int cmd_estimate(int argc, char **argv)
                 fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
                 goto out;
             }
-            fprintf(stderr, "parlight estimate: warning: %s\n", pl_last_error());
+            log_limited(&warn_limit, "warning: ", pl_last_error());
         }
         while (pl_sinks_next_event(sinks, event, sizeof event))
-            fprintf(stderr, "parlight estimate: %s\n", event);
+            log_limited(&event_limit, "", event);
         done++;
     }
     if (cap) {
@@ -326,7 +550,10 @@ int cmd_estimate(int argc, char **argv)
                          (long long)bad, bad == 1 ? "" : "s", last);
         skipped += bad;
     }
+    log_held(&warn_limit, "sink warnings");
+    log_held(&event_limit, "sink messages");
     if (stop_requested) {
+    stopped:
         fprintf(stderr, "parlight estimate: stopped by a signal after %lld frame%s\n", done,
                 done == 1 ? "" : "s");
         rc = 0;
@@ -341,6 +568,7 @@ int cmd_estimate(int argc, char **argv)
     }
     rc = 0;
 out:
+    cli_poses_free(&poses);
     pl_capture_stop(cap);
     pl_sinks_close(sinks);
     pl_source_close(src);

@@ -58,6 +58,8 @@ static void usage(FILE *f)
             "  --ridge FILE    baseline (d)'s model (tools/train/fit_ridge.py); default: the\n"
             "                  --model file's folder's parlight-ridge.json when it exists;\n"
             "                  none: (d) not scored (stderr says when it is not)\n"
+            "  --max-pixels N  panoramas of up to N pixels (default 67108864 = 64 Mi; at most "
+            "268435456)\n"
             "  -h, --help      this text\n");
 }
 
@@ -290,8 +292,10 @@ static int stats_of(const pl_eval_scores *s, int n, int m, int metric, double *b
 {
     for (int i = 0; i < n; i++) {
         const pl_eval_scores *x = &s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
-        buf[i] = metric == 0 ? x->rmse : metric == 1 ? x->si_rmse : metric == 2 ? x->angle_deg
-                                                                                 : x->scale_ev;
+        buf[i] = metric == 0   ? x->rmse
+                 : metric == 1 ? x->si_rmse
+                 : metric == 2 ? x->angle_deg
+                               : x->scale_ev;
     }
     return pl_eval_quartiles(buf, n, out);
 }
@@ -407,6 +411,7 @@ int cmd_eval(int argc, char **argv)
                                          {"per-pano", no_argument, 0, 'p'},
                                          {"anchor", required_argument, 0, 'A'},
                                          {"ridge", required_argument, 0, 'R'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *model_path = NULL, *dir = NULL, *ridge_arg = NULL;
@@ -444,6 +449,9 @@ int cmd_eval(int argc, char **argv)
         case 'R':
             ridge_arg = optarg;
             break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("eval", optarg) < 0) return 2;
+            break;
         case 'h':
             usage(stdout);
             return 0;
@@ -478,8 +486,7 @@ int cmd_eval(int argc, char **argv)
     if (list_dir(dir, &files, &n_files) < 0 || pl_model_load(model_path, &model) < 0 ||
         pl_model_set_threads(model, threads) < 0 ||
         (have_anchor && pl_model_set_anchor(model, anchor[0], anchor[1], anchor[2]) < 0) ||
-        pl_model_get_info(model, &mi) < 0 ||
-        pl_pool_create(threads, &pool) < 0) {
+        pl_model_get_info(model, &mi) < 0 || pl_pool_create(threads, &pool) < 0) {
         fprintf(stderr, "parlight eval: %s\n", pl_last_error());
         goto out;
     }
@@ -553,8 +560,8 @@ int cmd_eval(int argc, char **argv)
         printf("{\"model\":");
         pl_app_put_json_string(stdout, model_path);
         printf(",\"precision\":\"%s\",\"n_lights\":%d,\"intensity_anchor\":{\"w\":%.6g,\"b\":%.6g,"
-               "\"gamma\":%.6g},\"hdr\":", mi.precision, mi.n_lights, mi.anchor[0], mi.anchor[1],
-               mi.anchor[2]);
+               "\"gamma\":%.6g},\"hdr\":",
+               mi.precision, mi.n_lights, mi.anchor[0], mi.anchor[1], mi.anchor[2]);
         pl_app_put_json_string(stdout, dir);
         pl_crop_params cp;
         pl_crop_default_params(&cp);

@@ -36,6 +36,8 @@ static void usage(FILE *f)
         "  --room-width M        assumed room width (x), camera centred (default 6)\n"
         "  --room-depth M        assumed room depth (z), camera centred (default 6)\n"
         "  --no-refine           keep the mean colours (skip the least-squares refinement)\n"
+        "  --max-pixels N        panoramas of up to N pixels (default 67108864 = 64 Mi; at most "
+        "268435456)\n"
         "  -h, --help            this text\n",
         PL_MAX_LIGHTS, PL_MAX_LIGHTS);
 }
@@ -52,6 +54,7 @@ int cmd_extract(int argc, char **argv)
                                          {"room-width", required_argument, 0, 'W'},
                                          {"room-depth", required_argument, 0, 'D'},
                                          {"no-refine", no_argument, 0, 'n'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *hdr = NULL, *out_path = NULL;
@@ -100,6 +103,9 @@ int cmd_extract(int argc, char **argv)
             break;
         case 'n':
             prm.refine = 0;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("extract", optarg) < 0) return 2;
             break;
         case 'h':
             usage(stdout);

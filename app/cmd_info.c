@@ -52,8 +52,12 @@ int cmd_info(int argc, char **argv)
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":m:h", opts, NULL)) != -1) {
         switch (c) {
-        case 'm': model_path = optarg; break;
-        case 'h': help(stdout); return 0;
+        case 'm':
+            model_path = optarg;
+            break;
+        case 'h':
+            help(stdout);
+            return 0;
         default:
             return cli_getopt_error("info", c, argv);
         }

@@ -34,7 +34,9 @@ static void help(FILE *f)
             "  --json           one JSON object on stdout instead of the text report\n"
             "  --max-frames K   stop after K good frames\n"
             "  --layers K       text report: show the K worst layers (default 10; 0 = all)\n"
-            "  --no-noise-floor skip the float noise-floor runs (half the time)\n");
+            "  --no-noise-floor skip the float noise-floor runs (half the time)\n"
+            "  --max-pixels N   images of up to N pixels (default 67108864 = 64 Mi; at most\n"
+            "                   268435456)\n");
 }
 
 static int load(const char *path, const char *want, const char *flag, pl_model **m)
@@ -116,6 +118,7 @@ int cmd_qcheck(int argc, char **argv)
                                          {"max-frames", required_argument, 0, 'n'},
                                          {"layers", required_argument, 0, 'l'},
                                          {"no-noise-floor", no_argument, 0, 'F'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *fpath = NULL, *qpath = NULL, *input = NULL;
@@ -143,6 +146,9 @@ int cmd_qcheck(int argc, char **argv)
             break;
         case 'F':
             noise_floor = 0;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("qcheck", optarg) < 0) return 2;
             break;
         case 'h':
             help(stdout);

@@ -43,7 +43,9 @@ static void help(FILE *f)
         "                      larger F, fewer narrow channels that new frames overflow\n"
         "  --out Q.plm         the int8 model to write\n"
         "  --force             replace Q.plm if it exists\n"
-        "  -v, --verbose       one line per calibration frame on stderr\n");
+        "  -v, --verbose       one line per calibration frame on stderr\n"
+        "  --max-pixels N      images of up to N pixels (default 67108864 = 64 Mi; at most\n"
+        "                      268435456)\n");
 }
 
 static void progress(void *ctx, int64_t good, int64_t bad, const char *frame, const char *error)
@@ -69,6 +71,7 @@ int cmd_quantize(int argc, char **argv)
                                          {"out", required_argument, 0, 'o'},
                                          {"force", no_argument, 0, 'f'},
                                          {"verbose", no_argument, 0, 'v'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     pl_quantize_opts o = {.method = PL_CALIB_MINMAX, .percentile = 99.99};
@@ -115,6 +118,9 @@ int cmd_quantize(int argc, char **argv)
             break;
         case 'v':
             verbose = 1;
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("quantize", optarg) < 0) return 2;
             break;
         case 'h':
             help(stdout);

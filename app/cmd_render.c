@@ -35,6 +35,8 @@ static void usage(FILE *f)
            "  --sphere M         render a sphere instead: diffuse or glossy\n"
            "  --size S           sphere render size in pixels (default 256)\n"
            "  --force            overwrite OUT if it exists\n"
+           "  --max-pixels N     panoramas of up to N pixels (default 67108864 = 64 Mi; at most "
+           "268435456)\n"
            "  -h, --help         this text\n");
 }
 
@@ -72,13 +74,19 @@ static int parse_int(const char *s, const char *flag, int lo, int hi, int *out)
 
 int cmd_render(int argc, char **argv)
 {
-    static const struct option opts[] = {
-        {"lights", required_argument, 0, 'l'}, {"env", required_argument, 0, 'e'},
-        {"out", required_argument, 0, 'o'},    {"width", required_argument, 0, 'w'},
-        {"at", required_argument, 0, 'a'},     {"cubemap", required_argument, 0, 'c'},
-        {"layout", required_argument, 0, 'L'}, {"sphere", required_argument, 0, 's'},
-        {"size", required_argument, 0, 'S'},   {"force", no_argument, 0, 'f'},
-        {"help", no_argument, 0, 'h'},         {0, 0, 0, 0}};
+    static const struct option opts[] = {{"lights", required_argument, 0, 'l'},
+                                         {"env", required_argument, 0, 'e'},
+                                         {"out", required_argument, 0, 'o'},
+                                         {"width", required_argument, 0, 'w'},
+                                         {"at", required_argument, 0, 'a'},
+                                         {"cubemap", required_argument, 0, 'c'},
+                                         {"layout", required_argument, 0, 'L'},
+                                         {"sphere", required_argument, 0, 's'},
+                                         {"size", required_argument, 0, 'S'},
+                                         {"force", no_argument, 0, 'f'},
+                                         {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
     const char *lights_path = NULL, *env_path = NULL, *out_path = NULL, *at = NULL;
     int width = 512, face = 0, cross = 1, size = 256, force = 0, sphere = -1;
     optind = 1;
@@ -136,6 +144,9 @@ int cmd_render(int argc, char **argv)
                         optarg);
                 return 2;
             }
+            break;
+        case CLI_OPT_MAX_PIXELS:
+            if (cli_max_pixels("render", optarg) < 0) return 2;
             break;
         case 'h':
             usage(stdout);

@@ -3,6 +3,8 @@
 #include <string.h>
 
 #include "app/commands.h"
+#include "core/image.h"
+#include "parlight.h"
 
 static const struct command {
     const char *name;
@@ -16,7 +18,8 @@ static const struct command {
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: parlight <command> [options]   (parlight <command> --help for details)\n\n"
+    fprintf(f, "usage: parlight <command> [options]   (parlight <command> --help for details)\n"
+               "       parlight --version\n\n"
                "Estimates indoor lighting (N lights + ambient) from camera frames.\n\ncommands:\n");
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         fprintf(f, "  %-10s %s\n", commands[i].name, commands[i].summary);
@@ -24,9 +27,15 @@ static void usage(FILE *f)
 
 int main(int argc, char **argv)
 {
+    /* Messages about images over the read limit name the flag that raises it. */
+    pl_image_set_max_pixels(PL_IMAGE_DEFAULT_MAX_PIXELS, "--max-pixels");
     if (argc < 2) {
         usage(stderr);
         return 2;
+    }
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) {
+        printf("parlight %s\n", pl_version());
+        return 0;
     }
     if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
         usage(stdout);

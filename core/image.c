@@ -17,6 +17,41 @@ int pl_image_check_size(const char *what, long long width, long long height)
     return PL_OK;
 }
 
+static _Atomic long long read_limit = PL_IMAGE_DEFAULT_MAX_PIXELS;
+static const char *_Atomic read_limit_how;
+
+int pl_image_set_max_pixels(long long max_pixels, const char *how_to_raise)
+{
+    if (max_pixels < 1 || max_pixels > (long long)PL_IMAGE_MAX_PIXELS)
+        return pl_error(PL_E_ARG, "read limit %lld pixels outside 1..%u", max_pixels,
+                        PL_IMAGE_MAX_PIXELS);
+    read_limit = max_pixels;
+    read_limit_how = how_to_raise;
+    return PL_OK;
+}
+
+long long pl_image_max_pixels(void)
+{
+    return read_limit;
+}
+
+int pl_image_check_read_size(const char *what, long long width, long long height)
+{
+    int rc = pl_image_check_size(what, width, height);
+    if (rc < 0) return rc;
+    const long long limit = read_limit;
+    if (width * height <= limit) return PL_OK;
+    const char *how = read_limit_how;
+    if (how)
+        return pl_error(PL_E_FORMAT,
+                        "%s: image size %lldx%lld (%lld pixels) is over the limit of %lld pixels; "
+                        "%s N raises it (up to %u)",
+                        what, width, height, width * height, limit, how, PL_IMAGE_MAX_PIXELS);
+    return pl_error(PL_E_FORMAT,
+                    "%s: image size %lldx%lld (%lld pixels) is over the limit of %lld pixels", what,
+                    width, height, width * height, limit);
+}
+
 static int image_bytes(int width, int height, size_t channel_bytes, size_t *bytes)
 {
     if (pl_image_check_size("image", width, height) < 0) return PL_E_ARG;

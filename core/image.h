@@ -25,13 +25,26 @@ typedef struct pl_image_f32 {
     float *data;
 } pl_image_f32;
 
-/* Largest image any reader accepts, per side and in pixels: bigger declared sizes are rejected
- * before any allocation (a guard against hostile headers). The fuzz build (make fuzz) defines a
- * smaller PL_IMAGE_MAX_PIXELS, so that a legal but huge image is not an out-of-memory "crash". */
+/* Largest image parlight handles, per side and in pixels: bigger declared sizes are rejected
+ * before any allocation (a guard against hostile headers). The ceiling for the read limit below. */
 #define PL_IMAGE_MAX_SIDE 32768
-#ifndef PL_IMAGE_MAX_PIXELS
 #define PL_IMAGE_MAX_PIXELS (256u * 1024u * 1024u)
-#endif
+
+/* The read limit: the most pixels (width x height) a reader of files and frames decodes, checked
+ * on the size a header declares before anything is allocated. Default
+ * PL_IMAGE_DEFAULT_MAX_PIXELS = 2^26 (64 Mi pixels: 11584 x 5792 as a 2:1 panorama, 768 MiB as
+ * float RGB, 192 MiB as 8-bit RGB): a 4 GB board survives any file. The CLI raises it with
+ * --max-pixels (docs/EXTRACTION.md, "Limits").
+ * pl_image_set_max_pixels: 1..PL_IMAGE_MAX_PIXELS, else PL_E_ARG; `how_to_raise` (a static
+ * string such as "--max-pixels", or NULL) is named in the messages of refused images. Process-wide,
+ * like OpenCV's OPENCV_IO_MAX_IMAGE_PIXELS: set it once at start-up, before any reader runs (the
+ * OpenCV plugin takes it when it is loaded, see port/plugin.c). */
+#define PL_IMAGE_DEFAULT_MAX_PIXELS (64u * 1024u * 1024u)
+int pl_image_set_max_pixels(long long max_pixels, const char *how_to_raise);
+long long pl_image_max_pixels(void);
+/* Checks a declared size against PL_IMAGE_MAX_SIDE and the read limit: PL_E_FORMAT naming `what`
+ * (a path), the size, the limit and how to raise it. */
+int pl_image_check_read_size(const char *what, long long width, long long height);
 
 /* Allocates width x height pixels (rows packed: stride = 3*width for u8). Sizes must be in
  * 1..PL_IMAGE_MAX_SIDE with width*height <= PL_IMAGE_MAX_PIXELS, else PL_E_ARG; PL_E_NOMEM when

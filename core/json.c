@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/file.h"
 #include "core/util.h"
 
 typedef struct parser {
@@ -478,11 +479,11 @@ int pl_json_read_file(const char *path, pl_json_doc *doc)
 {
     if (!doc || !path) return pl_error(PL_E_ARG, "pl_json_read_file: NULL argument");
     memset(doc, 0, sizeof *doc);
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, strerror(errno));
+    FILE *f;
+    int rc = pl_file_fopen_regular(path, NULL, &f);
+    if (rc < 0) return rc;
     size_t cap = 4096, n = 0;
     char *buf = malloc(cap);
-    int rc = 0;
     if (!buf) {
         fclose(f);
         return pl_error(PL_E_NOMEM, "%s: out of memory", path);

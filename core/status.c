@@ -55,3 +55,8 @@ const char *pl_status_name(int status)
     default: return "PL_E_UNKNOWN";
     }
 }
+
+const char *pl_version(void)
+{
+    return PARLIGHT_VERSION;
+}

@@ -1,12 +1,25 @@
 /* parlight — indoor lighting estimation from one camera frame (Gardner et al., ICCV 2019).
  *
- * Public C API. Typical use:
+ * Public C API. Typical use (tests/test_api_example.c is this example, compiled and run by
+ * `make test`; tests/test_header_example.sh checks the two still agree):
  *
- *     pl_model *m;
- *     if (pl_model_load("models/parlight-n3.plm", &m) < 0) { puts(pl_last_error()); ... }
+ *     pl_model *m = NULL;
+ *     if (pl_model_load(path, &m) < 0) {
+ *         fprintf(stderr, "%s\n", pl_last_error());
+ *         return 1;
+ *     }
  *     pl_lighting L;
- *     if (pl_estimate_rgb8(m, rgb, width, height, width * 3, &L) < 0) { ... }
- *     ... L.lights[0].dir, L.ambient ...
+ *     pl_timing t;
+ *     if (pl_estimate_rgb8(m, rgb, width, height, (size_t)width * 3, &L, &t) < 0) {
+ *         fprintf(stderr, "%s\n", pl_last_error());
+ *         pl_model_free(m);
+ *         return 1;
+ *     }
+ *     for (int i = 0; i < L.n_lights; i++)
+ *         printf("light %d: dir %.3f %.3f %.3f, %.3f sr\n", i, L.lights[i].dir[0],
+ *                L.lights[i].dir[1], L.lights[i].dir[2], L.lights[i].solid_angle_sr);
+ *     printf("ambient %.3f %.3f %.3f (%.1f ms)\n", L.ambient[0], L.ambient[1], L.ambient[2],
+ *            t.preprocess_ms + t.infer_ms);
  *     pl_model_free(m);
  *
  * Errors: every function that can fail returns a negative pl_status and leaves a message naming
@@ -26,6 +39,15 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* Version of this library: PARLIGHT_VERSION (a string) for what a program was compiled
+ * against, pl_version() for what it runs with. The major number changes when the API or the ABI
+ * does (libparlight.so.MAJOR). */
+#define PARLIGHT_VERSION_MAJOR 0
+#define PARLIGHT_VERSION_MINOR 5
+#define PARLIGHT_VERSION_PATCH 0
+#define PARLIGHT_VERSION "0.5.0"
+const char *pl_version(void);
 
 typedef enum pl_status {
     PL_OK = 0,
@@ -68,8 +90,10 @@ typedef struct pl_lighting {
 
 typedef struct pl_model pl_model;
 
-/* Loads and validates a .plm file (docs/FORMAT.md), maps it, and plans the one arena that every
- * later pl_estimate_* call runs in. Nothing is allocated per frame afterwards. */
+/* Loads and validates a .plm file (docs/FORMAT.md), reads it whole into memory the model owns
+ * (the file can then be changed or removed without effect on the model), and plans the one
+ * arena that every later pl_estimate_* call runs in. Nothing is allocated per frame afterwards.
+ * A path that is not a regular file (a FIFO, a device, a directory) is refused without blocking. */
 int pl_model_load(const char *path, pl_model **out);
 void pl_model_free(pl_model *model);
 
@@ -113,6 +137,85 @@ typedef struct pl_timing {
  * that calls it. */
 int pl_estimate_rgb8(pl_model *model, const uint8_t *rgb, int width, int height, size_t stride,
                      pl_lighting *out, pl_timing *timing);
+
+/* ---- what AR apps use: primary light, SH, the engine form, relighting, poses ------------- */
+
+/* The lights as seen from point p (metres, camera frame): direction d*l - p, distance |d*l - p|,
+ * solid angle scaled by (d/|d*l - p|)^2; rgb (peak radiance) and ambient unchanged. PL_E_ARG if p
+ * is within 1 mm of a light or not finite. p = 0 returns L unchanged. out may be L. */
+int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_lighting *out);
+
+/* Main light for AR: the light with the largest energy, luminance(rgb) * (its lobe's integral,
+ * 2 pi sigma (1 - e^(-2 / sigma)), sigma = s / 4pi) with
+ * luminance = 0.2126 r + 0.7152 g + 0.0722 b (the first one on ties). dir = its direction, rgb =
+ * its peak radiance c_i. Returns the index of that light (>= 0); with no lights dir = (0, 1, 0),
+ * rgb = (0, 0, 0) and it returns 0 as well (PL_E_ARG only for NULL outputs). */
+int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
+
+/* 27 L2 SH coefficients, WebXR order (9 coefficients x RGB interleaved: L00.r, L00.g, L00.b,
+ * L1-1.r, ...), in the order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real orthonormal
+ * basis. They project RADIANCE (not irradiance): sh[k] = integral L(u) Y_k(u) du. Basis
+ * constants and the irradiance conversion are in docs/LIGHTING.md. SG lobes are projected in
+ * closed form (zonal), so this is exact up to float rounding. */
+void pl_sh9_from_lights(const pl_lighting *L, float sh[27]);
+
+/* Lighting an engine applies as it is, without double counting (docs/LIGHTING.md, "Engine-ready
+ * lighting"): a directional light for the primary light and an SH probe of everything else, so
+ * that DirectionalLight(dir, intensity) + LightProbe(sh9) gives the diffuse irradiance of the
+ * whole lighting (three.js, WebXR, ARCore and Unity all add the two).
+ *   dir        toward the primary light (pl_lighting_primary's light, unit); (0, 1, 0) with none
+ *   intensity  RGB irradiance the directional light delivers at normal incidence (three.js:
+ *              its colour x intensity): the share of the primary lobe a directional light can
+ *              carry, chosen to minimise the error left in SH bands >= 4. About the lobe's energy
+ *              c * (its lobe's integral) for a lamp; for wide lobes less, the rest stays in sh9
+ *   sh9        27 radiance SH coefficients (pl_sh9_from_lights' order and basis) of the
+ *              lighting minus a delta light of that intensity in dir
+ * Measured against brute-force irradiance (tests/test_engine.c, error / peak irradiance): 0.3% for
+ * a 0.002 sr lamp, <= 2.1% for one lobe of 0.01..1 sr, 0.4% at 2.9 sr; sh9 alone 0.9..7%, sh9 +
+ * a directional light of the primary 9..97%. */
+typedef struct pl_engine_lighting {
+    float dir[3];
+    float intensity[3];
+    float sh9[27];
+} pl_engine_lighting;
+void pl_lighting_engine(const pl_lighting *L, pl_engine_lighting *out);
+
+/* Evaluates the radiance of 27 SH coefficients in unit direction u. */
+void pl_sh9_eval(const float sh[27], const float u[3], float rgb[3]);
+
+/* How far |q| may be from 1 before a quaternion is refused rather than normalised. */
+#define PL_QUAT_UNIT_TOL 1e-3
+
+/* Row-major 3x3 rotation of unit quaternion q (w, x, y, z). PL_E_ARG, naming the problem, when
+ * a component is not finite or | |q| - 1 | > PL_QUAT_UNIT_TOL; otherwise q is normalised first. */
+int pl_quat_to_rotation(const double q[4], double R[9]);
+
+/* Every light direction turned by R (distances, sizes, colours and the ambient unchanged);
+ * out may be L. */
+void pl_lighting_rotate(const pl_lighting *L, const double R[9], pl_lighting *out);
+
+/* ---- the JSON line ------------------------------------------------------------------------ */
+
+/* What the line says about a frame besides its lighting (docs/OUTPUT.md). */
+typedef struct pl_frame_meta {
+    int64_t frame;                 /* "frame" */
+    int64_t t_ns;                  /* "t_ns" */
+    const char *source;            /* "source" (escaped here; NULL = "") */
+    const double *orientation;     /* camera-to-world (w, x, y, z) the lighting was turned by:
+                                      "space":"world"; NULL: "space":"camera" */
+    pl_timing timing;              /* "timing_ms" preprocess and infer */
+    double total_ms;               /* "timing_ms" total */
+    double latency_ms;             /* "timing_ms" latency; < 0: left out */
+    int64_t dropped;               /* "dropped" */
+} pl_frame_meta;
+
+/* Writes the one-line JSON object `parlight estimate` prints for a frame, '\n' included, into
+ * buf (cap bytes; 16384 suffice for 16 lights and a source of up to 4096 plain characters),
+ * NUL-terminated.
+ * Returns its length, or PL_E_ARG when it does not fit or an argument is NULL. Apps that emit
+ * this stream themselves produce the same bytes as the CLI. */
+int pl_frame_format_json(const pl_frame_meta *meta, const pl_lighting *lighting, char *buf,
+                         size_t cap);
 
 /* The latent z of the last estimate (3072 floats for the default model: 1024 channels x 3
  * bands, channel-major), for tests and tools. */

@@ -44,27 +44,8 @@ int pl_envmap_downsample(const pl_image_f32 *env, int width, pl_image_f32 *out);
  * radiance at its centre direction. width even, 2..PL_IMAGE_MAX_SIDE. *out is allocated. */
 int pl_envmap_from_lights(const pl_lighting *L, int width, pl_image_f32 *out);
 
-/* The lights as seen from point p (metres, camera frame): direction d*l - p, distance |d*l - p|,
- * solid angle scaled by (d/|d*l - p|)^2; rgb (peak radiance) and ambient unchanged. PL_E_ARG if p
- * is within 1 mm of a light or not finite. p = 0 returns L unchanged. out may be L. */
-int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_lighting *out);
-
-/* Main light for AR: the light with the largest energy, luminance(rgb) * pl_sg_integral(s) with
- * luminance = 0.2126 r + 0.7152 g + 0.0722 b (the first one on ties). dir = its direction, rgb =
- * its peak radiance c_i. Returns the index of that light (>= 0); with no lights dir = (0, 1, 0),
- * rgb = (0, 0, 0) and it returns 0 as well (PL_E_ARG only for NULL outputs). */
-int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
-
-/* 27 L2 SH coefficients, WebXR order (9 coefficients x RGB interleaved: L00.r, L00.g, L00.b,
- * L1-1.r, ...), in the order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real orthonormal
- * basis. They project RADIANCE (not irradiance): sh[k] = integral L(u) Y_k(u) du. Basis
- * constants and the irradiance conversion are in docs/LIGHTING.md. SG lobes are projected in
- * closed form (zonal), so this is exact up to float rounding. */
-void pl_sh9_from_lights(const pl_lighting *L, float sh[27]);
 /* The same projection of an equirectangular map (sum over pixels of L * Y * pixel solid angle). */
 int pl_sh9_from_envmap(const pl_image_f32 *env, float sh[27]);
-/* Evaluates the radiance of 27 SH coefficients in unit direction u. */
-void pl_sh9_eval(const float sh[27], const float u[3], float rgb[3]);
 
 /* HDR cube map, 6 faces in order +X, -X, +Y, -Y, +Z, -Z (OpenGL cube-map conventions, as WebXR's
  * XRLightProbe / WebGL TEXTURE_CUBE_MAP use), each face x face RGB floats, rows top to bottom,

@@ -82,6 +82,73 @@ void pl_sh9_from_lights(const pl_lighting *L, float sh[27])
         sh[k] = (float)acc[k];
 }
 
+/* The intensity of the directional light that stands for a lobe exp(lam (t - 1)) of unit peak in
+ * pl_lighting_engine. Directional light + probe reproduce the lobe's irradiance exactly in bands
+ * 0..2 whatever the intensity E (the probe gets the lobe minus a delta of power E, and the engine
+ * adds E max(0, n.l)); what is left is bands l >= 4 (odd ones vanish), in irradiance
+ *     sum_l (2l+1)/4pi C_l (g_l - E) P_l(n.l),
+ * g_l = 2pi int exp(lam (t - 1)) P_l(t) dt the lobe's Funk-Hecke factors, C_l = 2pi int_0^1 t P_l
+ * the clamped cosine's. E minimising its L2 norm: sum w_l g_l / sum w_l, w_l = (2l+1) C_l^2,
+ * l = 4, 6, .., 16. For a small lobe g_l -> g_0 (its energy); for a wide one g_l falls with l
+ * and so does E: the probe keeps the share of the lobe a directional light cannot carry. */
+static double lobe_directional_share(double lam)
+{
+    enum { LMAX = 16, NY = 600 };
+    double g[LMAX + 1] = {0};
+    /* t = 1 - y / lam: the integrand exp(-y) P_l(1 - y/lam), y in [0, min(2 lam, 60)], Simpson */
+    double ymax = fmin(2.0 * lam, 60.0), h = ymax / NY;
+    for (int k = 0; k <= NY; k++) {
+        double y = k * h, t = 1.0 - y / lam, w = (k == 0 || k == NY) ? 1 : (k % 2 ? 4 : 2);
+        double p0 = 1, p1 = t, f = exp(-y) * w;
+        g[0] += f;
+        g[1] += f * t;
+        for (int l = 2; l <= LMAX; l++) {
+            double p2 = ((2 * l - 1) * t * p1 - (l - 1) * p0) / l;
+            g[l] += f * p2;
+            p0 = p1;
+            p1 = p2;
+        }
+    }
+    double num = 0, den = 0, fact = h / 3.0 * 2.0 * M_PI / lam;
+    for (int l = 4; l <= LMAX; l += 2) {
+        /* C_l = 2pi (-1)^(l/2+1) / ((l+2)(l-1)) * l! / (2^l ((l/2)!)^2), even l >= 2 */
+        double binom = 1; /* l! / (2^l ((l/2)!)^2) = prod_{j=1}^{l/2} (2j-1)/(2j) */
+        for (int j = 1; j <= l / 2; j++)
+            binom *= (2.0 * j - 1) / (2.0 * j);
+        double c = 2.0 * M_PI * ((l / 2) % 2 ? 1 : -1) * binom / ((l + 2.0) * (l - 1.0));
+        double w = (2 * l + 1) * c * c;
+        num += w * g[l] * fact;
+        den += w;
+    }
+    return num / den;
+}
+
+void pl_lighting_engine(const pl_lighting *L, pl_engine_lighting *out)
+{
+    if (!out) return;
+    float rgb[3];
+    int i = pl_lighting_primary(L, out->dir, rgb);
+    pl_sh9_from_lights(L, out->sh9);
+    memset(out->intensity, 0, sizeof out->intensity);
+    if (!L || i >= L->n_lights || !(L->lights[i].solid_angle_sr > 0)) return;
+    double d[3] = {out->dir[0], out->dir[1], out->dir[2]};
+    double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(n > 0)) return;
+    for (int k = 0; k < 3; k++) {
+        d[k] /= n;
+        out->dir[k] = (float)d[k];
+    }
+    double e = lobe_directional_share(4.0 * M_PI / L->lights[i].solid_angle_sr), y[9];
+    sh_basis(d, y);
+    for (int c = 0; c < 3; c++) {
+        double ec = e * rgb[c];
+        out->intensity[c] = (float)ec;
+        /* a delta light of power ec in d projects to ec * Y_k(d) */
+        for (int k = 0; k < 9; k++)
+            out->sh9[k * 3 + c] = (float)(out->sh9[k * 3 + c] - ec * y[k]);
+    }
+}
+
 int pl_sh9_from_envmap(const pl_image_f32 *env, float sh[27])
 {
     if (!env || !env->data || !sh) return pl_error(PL_E_ARG, "pl_sh9_from_envmap: NULL argument");

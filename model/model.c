@@ -172,7 +172,7 @@ int pl_model_get_info(const pl_model *m, pl_model_info *info)
     info->input_h = m->in_h;
     info->input_w = m->in_w;
     info->n_params = m->n_params;
-    info->file_size = (int64_t)m->file.map_size;
+    info->file_size = (int64_t)m->file.n_bytes;
     for (int k = 0; k < 3; k++)
         info->anchor[k] = m->anchor[k];
     /* fp32 on a packed path: the arena, the GEMM scratch and the packed weights */

@@ -1,16 +1,14 @@
 #include "model/plm.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/file.h"
 #include "core/util.h"
 
 static uint32_t crc_table[8][256];
@@ -169,10 +167,10 @@ static int check_entry(pl_plm *plm, uint32_t i, const uint8_t *e, uint64_t data_
     if (off % PL_PLM_ALIGN || off < data_offset)
         return pl_error(PL_E_FORMAT, "%s: tensor '%s': offset %llu not 64-aligned or before data",
                         path, t->name, (unsigned long long)off);
-    if (!pl_add_u64(off, size, &end) || end > plm->map_size)
+    if (!pl_add_u64(off, size, &end) || end > plm->n_bytes)
         return pl_error(PL_E_FORMAT, "%s: tensor '%s': data [%llu, +%llu) past end of file (%zu)",
                         path, t->name, (unsigned long long)off, (unsigned long long)size,
-                        plm->map_size);
+                        plm->n_bytes);
     memcpy(&t->scale, e + 104, 4);
     t->zero_point = (int32_t)rd32(e + 108);
     for (int k = 112; k < 128; k++)
@@ -180,7 +178,7 @@ static int check_entry(pl_plm *plm, uint32_t i, const uint8_t *e, uint64_t data_
                                   t->name);
     if (!isfinite(t->scale))
         return pl_error(PL_E_FORMAT, "%s: tensor '%s': scale is not finite", path, t->name);
-    t->data = plm->map + off;
+    t->data = plm->bytes + off;
     t->size = (size_t)size;
     t->count = count;
     if (t->dtype == PL_DT_F32) {
@@ -193,36 +191,69 @@ static int check_entry(pl_plm *plm, uint32_t i, const uint8_t *e, uint64_t data_
     return PL_OK;
 }
 
+/* Reads the whole file into memory this process owns (64-byte aligned, as the tensors need), so
+ * that nothing done to the file afterwards (truncated, overwritten, replaced) reaches a loaded
+ * model: a mapping of it would fault (SIGBUS) on truncation and show overwritten bytes. A file
+ * that changes while it is read fails here or at the checksum. */
+static int read_whole(const char *path, pl_plm *plm)
+{
+    int fd;
+    int64_t size;
+    int rc = pl_file_open_regular(path, "model", &fd, &size);
+    if (rc < 0) return rc;
+    if (size < (int64_t)PL_PLM_HEADER_SIZE) {
+        close(fd);
+        return pl_error(PL_E_FORMAT, "%s: %lld bytes, too short for a .plm header (64)", path,
+                        (long long)size);
+    }
+    size_t n = (size_t)size, cap;
+    if ((uint64_t)size > SIZE_MAX || !pl_add_size(n, PL_PLM_ALIGN - 1, &cap)) {
+        close(fd);
+        return pl_error(PL_E_NOMEM, "%s: %lld bytes do not fit in memory", path, (long long)size);
+    }
+    cap -= cap % PL_PLM_ALIGN; /* aligned_alloc wants a multiple of the alignment */
+    uint8_t *buf = aligned_alloc(PL_PLM_ALIGN, cap);
+    if (!buf) {
+        close(fd);
+        return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
+    }
+    size_t got = 0;
+    while (got < n) {
+        ssize_t r = read(fd, buf + got, n - got);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) {
+            rc = pl_error(PL_E_IO, "%s: read error at byte %zu: %s", path, got, strerror(errno));
+            break;
+        }
+        if (r == 0) {
+            rc = pl_error(PL_E_IO,
+                          "%s: file shrank to %zu bytes while being read (%zu expected): "
+                          "is it being rewritten?",
+                          path, got, n);
+            break;
+        }
+        got += (size_t)r;
+    }
+    close(fd);
+    if (rc < 0) {
+        free(buf);
+        return rc;
+    }
+    memset(buf + n, 0, cap - n);
+    plm->bytes = buf;
+    plm->n_bytes = n;
+    return PL_OK;
+}
+
 int pl_plm_open(const char *path, pl_plm *plm)
 {
     memset(plm, 0, sizeof *plm);
     snprintf(plm->path, sizeof plm->path, "%s", path ? path : "(null)");
     if (!path) return pl_error(PL_E_ARG, "model path is NULL");
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return pl_error(PL_E_IO, "%s: cannot open model: %s", path, strerror(errno));
-    struct stat st;
-    int rc = PL_OK;
-    if (fstat(fd, &st) < 0) {
-        rc = pl_error(PL_E_IO, "%s: cannot stat: %s", path, strerror(errno));
-        close(fd);
-        return rc;
-    }
-    if (!S_ISREG(st.st_mode)) {
-        close(fd);
-        return pl_error(PL_E_IO, "%s: not a regular file", path);
-    }
-    if (st.st_size < (off_t)PL_PLM_HEADER_SIZE) {
-        close(fd);
-        return pl_error(PL_E_FORMAT, "%s: %lld bytes, too short for a .plm header (64)", path,
-                        (long long)st.st_size);
-    }
-    plm->map_size = (size_t)st.st_size;
-    void *map = mmap(NULL, plm->map_size, PROT_READ, MAP_PRIVATE, fd, 0);
-    close(fd);
-    if (map == MAP_FAILED) return pl_error(PL_E_IO, "%s: cannot map: %s", path, strerror(errno));
-    plm->map = map;
+    int rc = read_whole(path, plm);
+    if (rc < 0) return rc;
 
-    const uint8_t *h = plm->map;
+    const uint8_t *h = plm->bytes;
     if (memcmp(h, PL_PLM_MAGIC "\0", 8)) {
         rc = pl_error(PL_E_FORMAT, "%s: not a parlight model (bad magic)", path);
         goto fail;
@@ -241,9 +272,9 @@ int pl_plm_open(const char *path, pl_plm *plm)
                       path, header_size);
         goto fail;
     }
-    if (file_size != plm->map_size) {
+    if (file_size != plm->n_bytes) {
         rc = pl_error(PL_E_FORMAT, "%s: header says %llu bytes, file has %zu (truncated?)", path,
-                      (unsigned long long)file_size, plm->map_size);
+                      (unsigned long long)file_size, plm->n_bytes);
         goto fail;
     }
     if (meta_offset != PL_PLM_HEADER_SIZE || meta_size < 1 || meta_size > PL_PLM_MAX_META ||
@@ -265,7 +296,7 @@ int pl_plm_open(const char *path, pl_plm *plm)
                       (unsigned long long)data_offset);
         goto fail;
     }
-    uint32_t actual = pl_crc32(pl_crc32(0, plm->map, 56), plm->map + 60, plm->map_size - 60);
+    uint32_t actual = pl_crc32(pl_crc32(0, plm->bytes, 56), plm->bytes + 60, plm->n_bytes - 60);
     if (actual != crc) {
         rc = pl_error(PL_E_FORMAT, "%s: checksum mismatch (header %08x, data %08x): file corrupted",
                       path, crc, actual);
@@ -277,7 +308,7 @@ int pl_plm_open(const char *path, pl_plm *plm)
         rc = pl_error(PL_E_NOMEM, "%s: out of memory", path);
         goto fail;
     }
-    memcpy(plm->meta, plm->map + meta_offset, meta_size);
+    memcpy(plm->meta, plm->bytes + meta_offset, meta_size);
     plm->meta[meta_size] = '\0';
     if (strlen(plm->meta) != meta_size) {
         rc = pl_error(PL_E_FORMAT, "%s: metadata contains a NUL byte", path);
@@ -294,7 +325,7 @@ int pl_plm_open(const char *path, pl_plm *plm)
     }
     plm->n_tensors = n_tensors;
     for (uint32_t i = 0; i < n_tensors; i++) {
-        rc = check_entry(plm, i, plm->map + table_offset + (size_t)i * PL_PLM_ENTRY_SIZE,
+        rc = check_entry(plm, i, plm->bytes + table_offset + (size_t)i * PL_PLM_ENTRY_SIZE,
                          data_offset);
         if (rc < 0) break;
         for (uint32_t j = 0; j < i; j++)
@@ -329,7 +360,7 @@ fail:
 void pl_plm_close(pl_plm *plm)
 {
     if (!plm) return;
-    if (plm->map) munmap((void *)plm->map, plm->map_size);
+    free((void *)plm->bytes);
     free(plm->meta);
     free(plm->meta_keys);
     free(plm->meta_vals);

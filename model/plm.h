@@ -1,10 +1,13 @@
-/* The .plm model file (docs/FORMAT.md): open, validate, map, look up tensors and metadata.
+/* The .plm model file (docs/FORMAT.md): open, validate, read into memory, look up tensors and
+ * metadata.
  *
  * pl_plm_open checks everything the format promises before returning: header fields, metadata
  * text, every table entry (name, dtype, shape, size, alignment, bounds, overlap), the CRC-32 and
  * the finiteness of float data. After it succeeds, tensor data can be used without further
- * checks; what a tensor's shape must be for the architecture is checked by the executors (model/binder.h).
- * The file is mapped read-only; tensors point into the mapping and live until pl_plm_close. */
+ * checks; what a tensor's shape must be for the architecture is checked by the executors
+ * (model/binder.h). The whole file is read into memory the pl_plm owns, and the checksum verified
+ * on that copy: what happens to the file afterwards (truncated, overwritten, replaced) cannot
+ * change or crash a loaded model. Tensors point into that copy and live until pl_plm_close. */
 #ifndef PL_MODEL_PLM_H
 #define PL_MODEL_PLM_H
 
@@ -27,7 +30,7 @@ typedef struct pl_tensor {
     pl_dtype dtype;
     int ndim;            /* 1..4 */
     uint32_t dims[4];    /* dims[ndim..3] = 0 */
-    const void *data;    /* into the mapping, 64-byte aligned */
+    const void *data;    /* into bytes, 64-byte aligned */
     size_t size;         /* bytes */
     size_t count;        /* elements */
     float scale;         /* quantisation scale, 0 for float tensors */
@@ -35,8 +38,8 @@ typedef struct pl_tensor {
 } pl_tensor;
 
 typedef struct pl_plm {
-    const uint8_t *map;  /* the whole file, read-only */
-    size_t map_size;
+    const uint8_t *bytes; /* the whole file, read at open, 64-byte aligned, owned */
+    size_t n_bytes;
     char *meta;          /* metadata text, NUL-terminated copy, lines split in place */
     const char **meta_keys, **meta_vals;
     int n_meta;

@@ -14,17 +14,19 @@
 #include <ImfOutputFile.h>
 #include <ImfRgbaFile.h>
 #include <ImfTestFile.h>
+#include <openexr.h>
 #pragma GCC diagnostic pop
 
-#include <cerrno>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <new>
+#include <string>
 #include <vector>
+
+#include <sys/stat.h>
 
 extern "C" {
 #include "core/util.h"
@@ -34,22 +36,83 @@ extern "C" {
 namespace
 {
 
-// Sizes the library itself accepts (its sanity check then throws before allocating).
+std::string &last_core_message()
+{
+    thread_local std::string msg;
+    return msg;
+}
+
+// Sizes the C++ library itself accepts (Header::sanityCheck throws before allocating): no side or
+// tile side over PL_IMAGE_MAX_SIDE. The read limit and the chunk table are checked by probe().
 struct Limits {
     Limits()
     {
         Imf::Header::setMaxImageSize(PL_IMAGE_MAX_SIDE, PL_IMAGE_MAX_SIDE);
+        Imf::Header::setMaxTileSize(PL_IMAGE_MAX_SIDE, PL_IMAGE_MAX_SIDE);
     }
 };
 
-int check_size(const char *path, long long w, long long h)
+// OpenEXRCore would print to stderr: keep its first message (the cause; later ones are
+// consequences, "Unable to extract header byte") for ours instead.
+void core_error(exr_const_context_t, exr_result_t, const char *msg)
 {
-    if (w <= 0 || h <= 0 || w > PL_IMAGE_MAX_SIDE || h > PL_IMAGE_MAX_SIDE ||
-        (unsigned long long)w * (unsigned long long)h > PL_IMAGE_MAX_PIXELS)
-        return pl_error(PL_E_FORMAT,
-                        "%s: data window %lld x %lld outside 1..%d per side, %u pixels", path, w, h,
-                        PL_IMAGE_MAX_SIDE, PL_IMAGE_MAX_PIXELS);
-    return PL_OK;
+    if (last_core_message().empty()) last_core_message() = msg ? msg : "?";
+}
+
+const char *core_message(exr_result_t r)
+{
+    return last_core_message().empty() ? exr_get_default_error_message(r)
+                                       : last_core_message().c_str();
+}
+
+// Reads the header with OpenEXRCore before Imf::InputFile sees the file. The C++ reader sizes
+// buffers from header fields it has not checked against the file (an attribute's declared length:
+// 15 bytes of file reserve 1.77 GB; a tiled image's chunk table). OpenEXRCore checks attribute
+// sizes against the file, takes maximum image and tile sizes per context, and gives the data
+// window and chunk count without reading pixels: the size, the shape and the chunk table (8 bytes
+// a chunk, all in the file) are checked here, before anything the size of the image exists.
+int probe(const char *path, int panorama)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = core_error;
+    init.max_image_width = PL_IMAGE_MAX_SIDE;
+    init.max_image_height = PL_IMAGE_MAX_SIDE;
+    init.max_tile_width = PL_IMAGE_MAX_SIDE;
+    init.max_tile_height = PL_IMAGE_MAX_SIDE;
+    exr_context_t ctx = nullptr;
+    last_core_message().clear();
+    exr_result_t r = exr_start_read(&ctx, path, &init);
+    if (r != EXR_ERR_SUCCESS) {
+        int st = pl_error(r == EXR_ERR_OUT_OF_MEMORY ? PL_E_NOMEM : PL_E_FORMAT,
+                          "%s: OpenEXR header: %s", path, core_message(r));
+        exr_finish(&ctx);
+        return st;
+    }
+    int st = PL_OK;
+    exr_storage_t storage = EXR_STORAGE_SCANLINE;
+    exr_attr_box2i_t dw;
+    int32_t chunks = 0;
+    struct stat sb;
+    if ((r = exr_get_storage(ctx, 0, &storage)) != EXR_ERR_SUCCESS ||
+        (r = exr_get_data_window(ctx, 0, &dw)) != EXR_ERR_SUCCESS ||
+        (r = exr_get_chunk_count(ctx, 0, &chunks)) != EXR_ERR_SUCCESS) {
+        st = pl_error(PL_E_FORMAT, "%s: OpenEXR header: %s", path, core_message(r));
+    } else if (storage == EXR_STORAGE_DEEP_SCANLINE || storage == EXR_STORAGE_DEEP_TILED) {
+        st = pl_error(PL_E_UNSUPPORTED, "%s: deep OpenEXR images are not supported", path);
+    } else {
+        const long long w = (long long)dw.max.x - dw.min.x + 1;
+        const long long h = (long long)dw.max.y - dw.min.y + 1;
+        st = pl_hdr_check_declared(path, w, h, panorama);
+        if (st == PL_OK && stat(path, &sb) == 0 &&
+            (unsigned long long)chunks * 8 > (unsigned long long)sb.st_size)
+            st = pl_error(PL_E_FORMAT,
+                          "%s: truncated: %lld x %lld in %d chunks needs a %llu-byte chunk table, "
+                          "the file has %lld bytes",
+                          path, w, h, (int)chunks, (unsigned long long)chunks * 8,
+                          (long long)sb.st_size);
+    }
+    exr_finish(&ctx);
+    return st;
 }
 
 int alloc_image(const char *path, int w, int h, pl_image_f32 *out)
@@ -108,92 +171,26 @@ int read_yc(const char *path, int w, int h, pl_image_f32 *out)
     return PL_OK;
 }
 
-// OpenEXR 3.1 allocates an attribute's declared size before reading it, so a 71-byte file that
-// declares a 1.6 GB "channels" attribute costs 1.6 GB (found by tests/fuzz/fuzz_exr.c). Walks
-// the header(s) first: every attribute's size must fit in what is left of the file.
-int check_attribute_sizes(const char *path)
-{
-    FILE *f = std::fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, std::strerror(errno));
-    int st = PL_OK;
-    long long file_size = -1;
-    unsigned char head[8];
-    if (std::fseek(f, 0, SEEK_END) == 0) file_size = std::ftell(f);
-    if (file_size < 8 || std::fseek(f, 0, SEEK_SET) != 0 || std::fread(head, 1, 8, f) != 8) {
-        std::fclose(f);
-        return pl_error(PL_E_FORMAT, "%s: truncated OpenEXR header", path);
-    }
-    const bool multipart = head[5] & 0x10;
-    const int name_max = (head[5] & 0x04) ? 256 : 32; // long names: 255 bytes + NUL
-    long long pos = 8;
-    bool header_empty = true;
-    for (;;) {
-        char name[2][256];
-        for (int k = 0; k < 2; k++) { // attribute name, then type name
-            int n = 0, c;
-            while ((c = std::fgetc(f)) > 0 && n < name_max - 1)
-                name[k][n++] = (char)c;
-            name[k][n] = '\0';
-            pos += n + 1;
-            if (c != 0) {
-                st = pl_error(PL_E_FORMAT, "%s: OpenEXR header ends or a name is too long at %lld",
-                              path, pos);
-                goto out;
-            }
-            if (k == 0 && n == 0) break;
-        }
-        if (!name[0][0]) { // the end of a header
-            if (!multipart || header_empty) break;
-            header_empty = true;
-            continue;
-        }
-        header_empty = false;
-        unsigned char sz[4];
-        if (std::fread(sz, 1, 4, f) != 4) {
-            st = pl_error(PL_E_FORMAT, "%s: OpenEXR header truncated in attribute '%s'", path,
-                          name[0]);
-            goto out;
-        }
-        pos += 4;
-        const long long size = (long long)(int32_t)((uint32_t)sz[0] | (uint32_t)sz[1] << 8 |
-                                                    (uint32_t)sz[2] << 16 | (uint32_t)sz[3] << 24);
-        if (size < 0 || size > file_size - pos) {
-            st = pl_error(PL_E_FORMAT,
-                          "%s: OpenEXR attribute '%s' (%s) declares %lld bytes, %lld left", path,
-                          name[0], name[1], size, file_size - pos);
-            goto out;
-        }
-        if (std::fseek(f, (long)size, SEEK_CUR) != 0) {
-            st = pl_error(PL_E_IO, "%s: cannot seek: %s", path, std::strerror(errno));
-            goto out;
-        }
-        pos += size;
-    }
-out:
-    std::fclose(f);
-    return st;
-}
-
 } // namespace
 
-extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)
+extern "C" int pl_exr_read_file(const char *path, int panorama, pl_image_f32 *out)
 {
     static Limits limits;
     (void)limits;
     pl_image_f32 img = {0, 0, nullptr};
     try {
         bool tiled = false, deep = false, multipart = false;
-        int st0 = check_attribute_sizes(path);
-        if (st0 < 0) return st0;
         if (!Imf::isOpenExrFile(path, tiled, deep, multipart))
             return pl_error(PL_E_FORMAT, "%s: not an OpenEXR file", path);
         if (deep)
             return pl_error(PL_E_UNSUPPORTED, "%s: deep OpenEXR images are not supported", path);
+        int st = probe(path, panorama);
+        if (st < 0) return st;
         Imf::InputFile in(path);
         const Imf::Header &hd = in.header();
         const Imath::Box2i dw = hd.dataWindow();
         long long w = (long long)dw.max.x - dw.min.x + 1, h = (long long)dw.max.y - dw.min.y + 1;
-        int st = check_size(path, w, h);
+        st = pl_hdr_check_declared(path, w, h, panorama); // the C++ reader's view of the header
         if (st < 0) return st;
         if (!in.isComplete())
             return pl_error(PL_E_FORMAT, "%s: truncated or incomplete (missing pixel chunks)",
@@ -291,7 +288,7 @@ extern "C" {
 #include "port/hdr_io.h"
 }
 
-extern "C" int pl_exr_read_file(const char *path, pl_image_f32 *out)
+extern "C" int pl_exr_read_file(const char *path, int, pl_image_f32 *out)
 {
     if (out) *out = pl_image_f32{0, 0, nullptr};
     return pl_error(PL_E_UNSUPPORTED,

@@ -8,11 +8,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/file.h"
 #include "core/util.h"
 
-/* Whole files are read into memory; RGBE files above this size are refused (a 32768 x 8192
- * flat file is 1 GiB). */
-#define RGBE_MAX_FILE_BYTES ((size_t)1 << 31)
+/* RGBE files are read into memory in two steps: the header (at most this many bytes), then as
+ * many bytes as the declared size can need at most (rgbe_max_bytes), never the whole file: a
+ * tiny header on a huge file costs no more than the image it declares. */
+#define RGBE_MAX_HEADER_BYTES ((size_t)1 << 16)
 
 static float sanitize(float v)
 {
@@ -37,20 +39,16 @@ static int alloc_rgb(pl_image_f32 *img, int w, int h, const char *path)
     return PL_OK;
 }
 
-/* Reads the whole file (at most `max` bytes) into a malloc'ed buffer. */
-static int read_file(const char *path, size_t max, unsigned char **buf, size_t *len)
+/* Reads the first `max` bytes of the file (all of it when shorter) into a malloc'ed buffer. */
+static int read_prefix(const char *path, size_t max, unsigned char **buf, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, strerror(errno));
-    int st = PL_OK;
+    FILE *f;
+    int st = pl_file_fopen_regular(path, NULL, &f);
+    if (st < 0) return st;
     unsigned char *b = NULL;
     size_t cap = 0, n = 0;
-    for (;;) {
+    while (n < max) {
         if (n == cap) {
-            if (cap >= max) {
-                st = pl_error(PL_E_FORMAT, "%s: file larger than %zu bytes", path, max);
-                goto out;
-            }
             size_t ncap = cap ? cap * 2 : 1 << 16;
             if (ncap > max) ncap = max;
             unsigned char *nb = realloc(b, ncap);
@@ -79,6 +77,23 @@ out:
     return PL_OK;
 }
 
+/* The checks every reader makes on the size its header declares, before allocating: the read
+ * limit (core/image.h) and, for a panorama, the 2:1 shape. */
+static int check_declared(const char *path, long long w, long long h, int panorama)
+{
+    if (panorama && w >= 1 && h >= 1 && (h < 2 || w != 2 * h))
+        return pl_error(PL_E_FORMAT,
+                        "%s: %lld x %lld is not a 2:1 equirectangular panorama (want width = "
+                        "2 x height)",
+                        path, w, h);
+    return pl_image_check_read_size(path, w, h);
+}
+
+int pl_hdr_check_declared(const char *path, long long w, long long h, int panorama)
+{
+    return check_declared(path, w, h, panorama);
+}
+
 /* ---- RGBE ------------------------------------------------------------------------------ */
 
 static void rgbe_to_float(const unsigned char *p, float *rgb)
@@ -94,8 +109,8 @@ static void rgbe_to_float(const unsigned char *p, float *rgb)
 }
 
 /* Parses the header: fills *w, *h, *flip_y and *pos (offset of the first scanline byte). */
-static int rgbe_header(const char *path, const unsigned char *b, size_t len, int *w, int *h,
-                       int *flip_y, size_t *pos)
+static int rgbe_header(const char *path, const unsigned char *b, size_t len, int panorama, int *w,
+                       int *h, int *flip_y, size_t *pos)
 {
     size_t p = 0;
     if (!(len >= 2 && b[0] == '#' && b[1] == '?'))
@@ -127,7 +142,9 @@ static int rgbe_header(const char *path, const unsigned char *b, size_t len, int
                 return pl_error(PL_E_FORMAT, "%s: unknown FORMAT '%s'", path, line + 7);
         }
     }
-    if (!saw_blank) return pl_error(PL_E_FORMAT, "%s: truncated header (no blank line)", path);
+    if (!saw_blank)
+        return pl_error(PL_E_FORMAT, "%s: truncated header (no blank line in its first %zu bytes)",
+                        path, len);
     if (!format_ok) format_ok = 1; /* FORMAT is optional; RGBE is the default */
     size_t e = p;
     while (e < len && b[e] != '\n')
@@ -145,11 +162,8 @@ static int rgbe_header(const char *path, const unsigned char *b, size_t len, int
     if (yc != 'Y' || xc != 'X' || (ys != '-' && ys != '+') || xs != '+')
         return pl_error(PL_E_UNSUPPORTED, "%s: orientation '%s' not supported (want -Y H +X W)",
                         path, line);
-    if (hh <= 0 || ww <= 0 || hh > PL_IMAGE_MAX_SIDE || ww > PL_IMAGE_MAX_SIDE ||
-        (unsigned long)hh * (unsigned long)ww > PL_IMAGE_MAX_PIXELS)
-        return pl_error(PL_E_FORMAT,
-                        "%s: declared size %ld x %ld outside 1..%d per side, %u pixels", path, ww,
-                        hh, PL_IMAGE_MAX_SIDE, PL_IMAGE_MAX_PIXELS);
+    int st = check_declared(path, ww, hh, panorama);
+    if (st < 0) return st;
     *w = (int)ww;
     *h = (int)hh;
     *flip_y = ys == '+';
@@ -220,14 +234,28 @@ static int rgbe_scanline(const char *path, int y, const unsigned char *b, size_t
     return PL_OK;
 }
 
-static int rgbe_read(const char *path, const unsigned char *b, size_t len, pl_image_f32 *out)
+/* The most bytes a w x h RGBE image can take after its header: a new-style RLE scanline of only
+ * literals (4 + 4 x (w + one count per 128)), or a flat one (4 x w). */
+static size_t rgbe_max_bytes(int w, int h)
+{
+    unsigned long long rle = 4 + 4 * ((unsigned long long)w + ((unsigned long long)w + 127) / 128);
+    unsigned long long flat = 4 * (unsigned long long)w;
+    unsigned long long n = (rle > flat ? rle : flat) * (unsigned long long)h;
+    return n > SIZE_MAX ? SIZE_MAX : (size_t)n;
+}
+
+static int rgbe_read(const char *path, const unsigned char *b, size_t len, int panorama,
+                     pl_image_f32 *out)
 {
     int w, h, flip, st;
     size_t pos;
-    if ((st = rgbe_header(path, b, len, &w, &h, &flip, &pos)) < 0) return st;
-    /* Every scanline takes at least 4 bytes, and a new-style RLE one at least 4 + 4 * 2 bytes per
-     * 128 pixels: refuse sizes the file cannot hold before allocating. */
+    if ((st = rgbe_header(path, b, len, panorama, &w, &h, &flip, &pos)) < 0) return st;
+    /* Refuse sizes the file cannot hold before allocating. A new-style RLE scanline takes at
+     * least 4 + 4 * 2 bytes per 128 pixels; a flat one a literal pixel and then one old-style run
+     * code per byte of the run length (w - 1 = 0x7fff takes two: 12 bytes for 32768 pixels). */
     size_t min_line = 4;
+    for (size_t rest = (size_t)w - 1; rest > 0; rest >>= 8)
+        min_line += 4;
     if (w >= 8 && w < 32768 && len - pos >= 4 && b[pos] == 2 && b[pos + 1] == 2)
         min_line = 4 + 8 * (((size_t)w + 127) / 128);
     if ((len - pos) / min_line < (size_t)h)
@@ -350,22 +378,29 @@ static void sanitize_image(pl_image_f32 *img)
         img->data[i] = sanitize(img->data[i]);
 }
 
-int pl_hdr_read(const char *path, pl_image_f32 *out)
+static int hdr_read(const char *path, int panorama, pl_image_f32 *out)
 {
     if (!path || !out) return pl_error(PL_E_ARG, "pl_hdr_read: NULL argument");
     unsigned char magic[4] = {0};
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open: %s", path, strerror(errno));
+    FILE *f; /* refuses a FIFO before OpenEXR could open it (blocking) by name */
+    int st = pl_file_fopen_regular(path, NULL, &f);
+    if (st < 0) return st;
     size_t got = fread(magic, 1, 4, f);
     fclose(f);
-    int st;
     if (got == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01) {
-        st = pl_exr_read_file(path, out);
+        st = pl_exr_read_file(path, panorama, out);
     } else if (got >= 2 && magic[0] == '#' && magic[1] == '?') {
         unsigned char *buf = NULL;
-        size_t len = 0;
-        if ((st = read_file(path, RGBE_MAX_FILE_BYTES, &buf, &len)) < 0) return st;
-        st = rgbe_read(path, buf, len, out);
+        size_t len = 0, pos;
+        int w, h, flip;
+        if ((st = read_prefix(path, RGBE_MAX_HEADER_BYTES, &buf, &len)) < 0) return st;
+        st = rgbe_header(path, buf, len, panorama, &w, &h, &flip, &pos);
+        free(buf);
+        if (st < 0) return st;
+        size_t need;
+        if (!pl_add_size(pos, rgbe_max_bytes(w, h), &need)) need = SIZE_MAX;
+        if ((st = read_prefix(path, need, &buf, &len)) < 0) return st;
+        st = rgbe_read(path, buf, len, panorama, out);
         free(buf);
     } else {
         return pl_error(PL_E_FORMAT,
@@ -378,10 +413,15 @@ int pl_hdr_read(const char *path, pl_image_f32 *out)
     return PL_OK;
 }
 
+int pl_hdr_read(const char *path, pl_image_f32 *out)
+{
+    return hdr_read(path, 0, out);
+}
+
 int pl_hdr_read_panorama(const char *path, pl_image_f32 *out)
 {
     pl_image_f32 img;
-    int st = pl_hdr_read(path, &img);
+    int st = hdr_read(path, 1, &img);
     if (st < 0) return st;
     if (img.height < 2 || img.width != 2 * img.height) {
         int w = img.width, h = img.height;

@@ -12,8 +12,11 @@
  *     ignored (values are taken as stored, like most tools do). XYZE files are rejected.
  *     A mantissa m with exponent e decodes as (m + 0.5) * 2^(e - 136) (Radiance's colr_color).
  * Values: negative values are clamped to 0, NaN and +-Inf become 0 (a panorama is radiance).
- * Limits: declared sizes are checked against PL_IMAGE_MAX_SIDE / PL_IMAGE_MAX_PIXELS (and, for
- * RGBE, against the bytes the file actually has) before any pixel buffer is allocated; a file
+ * Limits: declared sizes are checked against PL_IMAGE_MAX_SIDE and the read limit
+ * (pl_image_max_pixels, core/image.h), and, for pl_hdr_read_panorama, against the 2:1 shape, from
+ * the header, before any pixel buffer is allocated; an RGBE file must hold the bytes its declared
+ * size needs at least (and is read only up to the most it can need); an EXR header is first read
+ * by OpenEXRCore with OpenEXR's own size limits, its chunk table must fit in the file, and a file
  * whose chunks are missing (truncated EXR) is rejected before decoding.
  * Errors: PL_E_IO (cannot open/read/write), PL_E_FORMAT (malformed, truncated, wrong magic, not
  * 2:1 where required), PL_E_UNSUPPORTED (valid but not handled: XYZE, deep EXR, odd orientation),
@@ -49,7 +52,11 @@ int pl_hdr_write_exr(const char *path, const pl_image_f32 *img, pl_exr_type type
 int pl_hdr_write_rgbe(const char *path, const pl_image_f32 *img);
 
 /* ---- internal: the OpenEXR shim (port/exr_io.cpp), called by the functions above ---------- */
-int pl_exr_read_file(const char *path, pl_image_f32 *out);
+/* panorama: 1 when the caller needs a 2:1 image (checked on the data window, before reading). */
+int pl_exr_read_file(const char *path, int panorama, pl_image_f32 *out);
+/* The checks on a declared size, before any allocation: the read limit
+ * (pl_image_check_read_size) and, when `panorama`, width == 2 x height. PL_E_FORMAT naming path. */
+int pl_hdr_check_declared(const char *path, long long w, long long h, int panorama);
 int pl_exr_write_file(const char *path, const pl_image_f32 *img, pl_exr_type type);
 
 #ifdef __cplusplus

@@ -21,11 +21,12 @@ extern "C" {
  *    rounded to nearest); 8-bit JPEGs get their EXIF orientation applied.
  *  - Floating-point images (Radiance .hdr, float TIFF, EXR) are refused with PL_E_UNSUPPORTED:
  *    they are HDR and need the HDR path, not a silent tone map. Signed 16-bit also unsupported.
- *  - Guard against decompression bombs: for PNG, JPEG and BMP the declared size is read from the
- *    header and checked against PL_IMAGE_MAX_SIDE / PL_IMAGE_MAX_PIXELS BEFORE decoding; for
- *    other formats OpenCV's own limits apply (OPENCV_IO_MAX_IMAGE_PIXELS, default 2^30, read by
- *    OpenCV at load time) and the decoded size is checked afterwards. Files over 1 GiB are
- *    refused unread.
+ *  - Guard against decompression bombs: the declared size is checked against PL_IMAGE_MAX_SIDE
+ *    and the read limit (pl_image_max_pixels, core/image.h) BEFORE decoding: read from the
+ *    header by parlight for PNG, JPEG, BMP, TIFF (IFD 0) and PNM; for other formats by OpenCV,
+ *    whose OPENCV_IO_MAX_IMAGE_* limits port/plugin.c sets from the read limit before OpenCV
+ *    loads; the decoded size is checked again afterwards. OpenEXR and Radiance files are refused
+ *    unread (PL_E_UNSUPPORTED: they need the HDR reader). Files over 1 GiB are refused unread.
  *  - Checked before decoding, so that the decoders neither return half images nor print: PNG
  *    chunk lengths and CRCs up to IEND; JPEG markers up to the first scan and an end-of-image
  *    marker after it (libjpeg would pad a truncated file with grey); BMP compression and, when

@@ -1,9 +1,11 @@
 /* Still-image files behind port/image.h: the file is read into memory (precise errno messages,
  * one read), its header is checked against the size limits before anything is decoded (PNG,
- * JPEG, BMP), truncation is detected (PNG: chunk lengths and CRCs up to IEND; JPEG: an EOI after
- * the first scan; BMP: all pixel rows present), and only then a decoder runs: libjpeg / libpng
- * directly for JPEG and PNG (port/jpeg_codec.c, port/png_codec.c), OpenCV for the other formats
- * (port/image_io.cpp) when this build has it. See port/image_codec.h and docs/PORTING.md. */
+ * JPEG, BMP, TIFF, PNM; HDR formats are refused unread), truncation is detected (PNG: chunk lengths
+ * and CRCs up to IEND; JPEG: an EOI after the first scan; BMP: all pixel rows present), and only
+ * then a decoder runs: libjpeg / libpng directly for JPEG and PNG (port/jpeg_codec.c,
+ * port/png_codec.c), OpenCV for the other formats (port/image_io.cpp) when this build has it. See
+ * port/image_codec.h and docs/PORTING.md. */
+#include "core/file.h"
 #include "core/util.h"
 #include "port/image.h"
 #include "port/image_codec.h"
@@ -24,7 +26,7 @@
  * largest accepted image is 768 MiB). */
 #define MAX_FILE_BYTES (1LL << 30)
 
-typedef enum kind { KIND_UNKNOWN, KIND_PNG, KIND_JPEG, KIND_BMP, KIND_OTHER } kind;
+typedef enum kind { KIND_UNKNOWN, KIND_PNG, KIND_JPEG, KIND_BMP, KIND_HDR, KIND_OTHER } kind;
 
 typedef struct header {
     kind kind;
@@ -171,18 +173,80 @@ static int check_bmp(const char *path, const uint8_t *p, size_t n, header *h)
     return PL_OK;
 }
 
+/* TIFF: the size of the first image (IFD 0: ImageWidth 256, ImageLength 257), the one OpenCV
+ * decodes. OpenCV 4.6 has no way to read a header without decoding (cv::ImageCollection came
+ * in 4.7) and its own limit is 2^30 pixels: a 9 KB TIFF whose strips all point at one deflated
+ * block reaches 2.7 GB inside imdecode. So the size is read here, and checked before decoding.
+ * Leaves h->width/height at -1 when the directory cannot be read (OpenCV then says why). */
+static void tiff_size(const uint8_t *p, size_t n, header *h)
+{
+    const bool le = p[0] == 'I';
+    uint32_t (*u16)(const uint8_t *) = le ? le16 : be16;
+    uint32_t (*u32)(const uint8_t *) = le ? le32 : be32;
+    if (n < 8) return;
+    const uint32_t ifd = u32(p + 4);
+    if (ifd < 8 || ifd > n - 2) return;
+    const uint32_t count = u16(p + ifd);
+    for (uint32_t i = 0; i < count && ifd + 2 + 12 * (size_t)(i + 1) <= n; i++) {
+        const uint8_t *e = p + ifd + 2 + 12 * (size_t)i;
+        const uint32_t tag = u16(e), type = u16(e + 2);
+        const long long v = type == 3   ? (long long)u16(e + 8)
+                            : type == 4 ? (long long)u32(e + 8)
+                                        : -1;
+        if (tag == 256) h->width = v;
+        if (tag == 257) h->height = v;
+    }
+    if (h->width < 0 || h->height < 0) h->width = h->height = -1;
+}
+
+/* PNM/PAM: "P<n>" then width and height as decimal text (PAM: WIDTH and HEIGHT lines). */
+static void pnm_size(const uint8_t *p, size_t n, header *h)
+{
+    long long v[2] = {-1, -1};
+    size_t i = 2;
+    if (p[1] == '7') { /* PAM */
+        for (; i + 7 < n && i < 4096; i++) {
+            if (p[i - 1] != '\n') continue;
+            if (memcmp(p + i, "WIDTH ", 6) == 0) v[0] = strtoll((const char *)p + i + 6, NULL, 10);
+            if (memcmp(p + i, "HEIGHT ", 7) == 0) v[1] = strtoll((const char *)p + i + 7, NULL, 10);
+            if (memcmp(p + i, "ENDHDR", 6) == 0) break;
+        }
+    } else {
+        for (int k = 0; k < 2; k++) {
+            while (i < n && (isspace(p[i]) || p[i] == '#')) {
+                if (p[i] == '#')
+                    while (i < n && p[i] != '\n')
+                        i++;
+                else
+                    i++;
+            }
+            long long x = 0;
+            size_t d = 0;
+            for (; i < n && isdigit(p[i]) && d < 12; i++, d++)
+                x = x * 10 + (p[i] - '0');
+            if (d == 0 || d == 12) return;
+            v[k] = x;
+        }
+    }
+    if (v[0] >= 0 && v[1] >= 0) {
+        h->width = v[0];
+        h->height = v[1];
+    }
+}
+
 /* Formats OpenCV may decode that we recognise by their first bytes, so that a build without
  * OpenCV can say "unsupported here" instead of "not an image". */
 static bool other_image_magic(const uint8_t *p, size_t n)
 {
-    if (n >= 4 && (memcmp(p, "II*\0", 4) == 0 || memcmp(p, "MM\0*", 4) == 0)) return true; /* TIFF */
+    if (n >= 4 && (memcmp(p, "II*\0", 4) == 0 || memcmp(p, "MM\0*", 4) == 0))
+        return true; /* TIFF */
     if (n >= 12 && memcmp(p, "RIFF", 4) == 0 && memcmp(p + 8, "WEBP", 4) == 0) return true;
-    if (n >= 2 && p[0] == 'P' && p[1] >= '1' && p[1] <= '7') return true;           /* PNM, PAM */
-    if (n >= 4 && memcmp(p, "\x76\x2f\x31\x01", 4) == 0) return true;                /* EXR */
-    if (n >= 10 && memcmp(p, "#?RADIANCE", 10) == 0) return true;                    /* HDR */
+    if (n >= 2 && p[0] == 'P' && p[1] >= '1' && p[1] <= '7') return true; /* PNM, PAM */
+    if (n >= 4 && memcmp(p, "\x76\x2f\x31\x01", 4) == 0) return true;     /* EXR */
+    if (n >= 10 && memcmp(p, "#?RADIANCE", 10) == 0) return true;         /* HDR */
     if (n >= 6 && memcmp(p, "#?RGBE", 6) == 0) return true;
-    if (n >= 4 && memcmp(p, "\x59\xa6\x6a\x95", 4) == 0) return true;                /* Sun raster */
-    if (n >= 12 && memcmp(p, "\0\0\0\x0cjP  ", 8) == 0) return true;                 /* JPEG 2000 */
+    if (n >= 4 && memcmp(p, "\x59\xa6\x6a\x95", 4) == 0) return true; /* Sun raster */
+    if (n >= 12 && memcmp(p, "\0\0\0\x0cjP  ", 8) == 0) return true;  /* JPEG 2000 */
     return false;
 }
 
@@ -200,7 +264,8 @@ static int parse_header(const char *path, const uint8_t *p, size_t n, header *h)
             return pl_error(PL_E_FORMAT, "%s: truncated PNG (no complete IHDR chunk)", path);
         h->width = be32(p + 16);
         h->height = be32(p + 20);
-        int rc = pl_image_check_size(path, h->width, h->height); /* a bomb's CRCs may be right */
+        int rc =
+            pl_image_check_read_size(path, h->width, h->height); /* a bomb's CRCs may be right */
         if (rc < 0) return rc;
         return check_png_chunks(path, p, n);
     }
@@ -209,34 +274,47 @@ static int parse_header(const char *path, const uint8_t *p, size_t n, header *h)
         return check_jpeg(path, p, n, h);
     }
     if (n >= 26 && p[0] == 'B' && p[1] == 'M') return check_bmp(path, p, n, h);
+    if ((n >= 4 && memcmp(p, "\x76\x2f\x31\x01", 4) == 0) ||
+        (n >= 2 && p[0] == '#' && p[1] == '?')) {
+        h->kind = KIND_HDR;
+        return PL_OK;
+    }
     if (other_image_magic(p, n)) h->kind = KIND_OTHER;
+    if (n >= 8 && (memcmp(p, "II*\0", 4) == 0 || memcmp(p, "MM\0*", 4) == 0)) tiff_size(p, n, h);
+    if (n >= 3 && p[0] == 'P' && p[1] >= '1' && p[1] <= '7') pnm_size(p, n, h);
     return PL_OK;
 }
 
 /* Reads the whole regular file at `path`, with a message for each way that can fail. */
 static int read_file(const char *path, uint8_t **out, size_t *size)
 {
-    struct stat st;
     *out = NULL;
     *size = 0;
-    if (stat(path, &st) != 0)
-        return pl_error(PL_E_IO, "%s: cannot open image: %s", path, strerror(errno));
-    if (S_ISDIR(st.st_mode)) return pl_error(PL_E_IO, "%s: is a directory, not an image file", path);
-    if (!S_ISREG(st.st_mode)) return pl_error(PL_E_IO, "%s: not a regular file", path);
-    if (st.st_size == 0) return pl_error(PL_E_FORMAT, "%s: empty file (0 bytes), not an image", path);
-    if (st.st_size > MAX_FILE_BYTES)
+    int fd;
+    int64_t bytes;
+    int rc = pl_file_open_regular(path, "image", &fd, &bytes);
+    if (rc < 0) return rc;
+    if (bytes == 0 || bytes > MAX_FILE_BYTES) {
+        close(fd);
+        if (bytes == 0)
+            return pl_error(PL_E_FORMAT, "%s: empty file (0 bytes), not an image", path);
         return pl_error(PL_E_FORMAT,
                         "%s: file of %lld bytes is larger than the %lld accepted for an image",
-                        path, (long long)st.st_size, MAX_FILE_BYTES);
-    FILE *f = fopen(path, "rb");
-    if (!f) return pl_error(PL_E_IO, "%s: cannot open image: %s", path, strerror(errno));
-    uint8_t *buf = malloc((size_t)st.st_size);
+                        path, (long long)bytes, MAX_FILE_BYTES);
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        int err = errno;
+        close(fd);
+        return pl_error(PL_E_IO, "%s: cannot open image: %s", path, strerror(err));
+    }
+    uint8_t *buf = malloc((size_t)bytes);
     if (!buf) {
         fclose(f);
         return pl_error(PL_E_NOMEM, "%s: cannot allocate %lld bytes to read it", path,
-                        (long long)st.st_size);
+                        (long long)bytes);
     }
-    const size_t got = fread(buf, 1, (size_t)st.st_size, f);
+    const size_t got = fread(buf, 1, (size_t)bytes, f);
     const int err = ferror(f) ? errno : 0;
     fclose(f);
     if (err) {
@@ -252,8 +330,8 @@ static int read_file(const char *path, uint8_t **out, size_t *size)
     return PL_OK;
 }
 
-static int decode(const char *path, const uint8_t *p, size_t n, const header *h,
-                  pl_image_u8 *img, size_t *cap)
+static int decode(const char *path, const uint8_t *p, size_t n, const header *h, pl_image_u8 *img,
+                  size_t *cap)
 {
     const bool cv = pl_codec_have_opencv();
     switch (h->kind) {
@@ -267,6 +345,13 @@ static int decode(const char *path, const uint8_t *p, size_t n, const header *h,
         if (cv) return pl_cv_image_decode_rgb8(p, n, path, PL_CV_KNOWN, img, cap);
         return pl_error(PL_E_UNSUPPORTED,
                         "%s: this build has neither libpng nor OpenCV: cannot decode PNG", path);
+    case KIND_HDR:
+        /* Refused unread: OpenCV would decode the whole float image first (a 98 KB RGBE file
+         * declares 32768 x 8192, 3 GB), only for mat_to_rgb8 to refuse it. */
+        return pl_error(PL_E_UNSUPPORTED,
+                        "%s: an HDR image (OpenEXR or Radiance): not read as 8-bit RGB; use the "
+                        "HDR reader",
+                        path);
     case KIND_BMP:
     case KIND_OTHER:
         if (cv) return pl_cv_image_decode_rgb8(p, n, path, PL_CV_KNOWN, img, cap);
@@ -274,8 +359,9 @@ static int decode(const char *path, const uint8_t *p, size_t n, const header *h,
                         "%s: this build has no OpenCV: only JPEG and PNG images can be read", path);
     default:
         if (cv) return pl_cv_image_decode_rgb8(p, n, path, 0, img, cap);
-        return pl_error(PL_E_FORMAT, "%s: not an image (content matches no format this build "
-                                     "decodes: JPEG, PNG)",
+        return pl_error(PL_E_FORMAT,
+                        "%s: not an image (content matches no format this build "
+                        "decodes: JPEG, PNG)",
                         path);
     }
 }
@@ -290,7 +376,7 @@ int pl_image_read_rgb8_reuse(const char *path, pl_image_u8 *img, size_t *capacit
     header h;
     rc = parse_header(path, buf, n, &h);
     if (rc == PL_OK && h.width >= 0 && h.height >= 0)
-        rc = pl_image_check_size(path, h.width, h.height);
+        rc = pl_image_check_read_size(path, h.width, h.height);
     if (rc == PL_OK) rc = decode(path, buf, n, &h, img, capacity);
     free(buf);
     return rc;
@@ -340,7 +426,8 @@ static int check_target(const char *path)
 
 int pl_image_write_rgb8(const char *path, const pl_image_u8 *img)
 {
-    if (!path || !img || !img->data) return pl_error(PL_E_ARG, "pl_image_write_rgb8: NULL argument");
+    if (!path || !img || !img->data)
+        return pl_error(PL_E_ARG, "pl_image_write_rgb8: NULL argument");
     if (pl_image_check_size(path, img->width, img->height) < 0)
         return pl_error(PL_E_ARG, "%s: cannot write a %dx%d image", path, img->width, img->height);
     if (img->stride < (size_t)img->width * 3)
@@ -428,7 +515,7 @@ int pl_image_decode_jpeg_rgb8_reuse(const uint8_t *data, size_t n, const char *w
         i += 2 + len;
     }
     if (w < 0) return pl_error(PL_E_FORMAT, "%s: JPEG frame without a frame header (SOF)", what);
-    if (pl_image_check_size(what, w, h) < 0) return PL_E_FORMAT;
+    if (pl_image_check_read_size(what, w, h) < 0) return PL_E_FORMAT;
     if (n > (size_t)INT32_MAX) return pl_error(PL_E_FORMAT, "%s: JPEG frame too large", what);
     if (pl_codec_have_jpeg()) return pl_jpeg_decode_rgb8(data, n, what, img, capacity);
     if (pl_codec_have_opencv())

@@ -87,7 +87,7 @@ const char *depth_name(int depth)
 int mat_to_rgb8(const char *path, const cv::Mat &m, pl_image_u8 *img, size_t *cap)
 {
     if (m.dims != 2) return pl_error(PL_E_UNSUPPORTED, "%s: %d-dimensional image", path, m.dims);
-    int rc = pl_image_check_size(path, m.cols, m.rows);
+    int rc = pl_image_check_read_size(path, m.cols, m.rows);
     if (rc < 0) return rc;
     const int cn = m.channels();
     if (cn != 1 && cn != 3 && cn != 4)
@@ -165,6 +165,13 @@ extern "C" int pl_cv_image_decode_rgb8(const uint8_t *p, size_t n, const char *w
     } catch (const std::bad_alloc &) {
         return pl_error(PL_E_NOMEM, "%s: out of memory while decoding", what);
     } catch (const cv::Exception &e) {
+        // validateInputImageSize: the header declares more than OPENCV_IO_MAX_IMAGE_* allow
+        // (port/plugin.c sets them from the read limit), refused before OpenCV allocates.
+        if (e.err.find("CV_IO_MAX_IMAGE") != std::string::npos)
+            return pl_error(PL_E_FORMAT,
+                            "%s: the image's declared size is over the limit of %lld pixels, "
+                            "%d per side (OpenCV's header check)",
+                            what, pl_image_max_pixels(), PL_IMAGE_MAX_SIDE);
         return pl_error(PL_E_FORMAT, "%s: OpenCV cannot decode it: %s", what, e.what());
     } catch (...) {
         return pl_error(PL_E_INTERNAL, "%s: unexpected exception while decoding", what);

@@ -94,14 +94,30 @@ static void orient(const uint8_t *src, int w, int h, int o, pl_image_u8 *out)
         for (int x = 0; x < ow; x++, d += 3) {
             int sx, sy;
             switch (o) {
-            case 2: sx = w - 1 - x, sy = y; break;
-            case 3: sx = w - 1 - x, sy = h - 1 - y; break;
-            case 4: sx = x, sy = h - 1 - y; break;
-            case 5: sx = y, sy = x; break;
-            case 6: sx = y, sy = h - 1 - x; break;
-            case 7: sx = w - 1 - y, sy = h - 1 - x; break;
-            case 8: sx = w - 1 - y, sy = x; break;
-            default: sx = x, sy = y; break;
+            case 2:
+                sx = w - 1 - x, sy = y;
+                break;
+            case 3:
+                sx = w - 1 - x, sy = h - 1 - y;
+                break;
+            case 4:
+                sx = x, sy = h - 1 - y;
+                break;
+            case 5:
+                sx = y, sy = x;
+                break;
+            case 6:
+                sx = y, sy = h - 1 - x;
+                break;
+            case 7:
+                sx = w - 1 - y, sy = h - 1 - x;
+                break;
+            case 8:
+                sx = w - 1 - y, sy = x;
+                break;
+            default:
+                sx = x, sy = y;
+                break;
             }
             memcpy(d, src + ((size_t)sy * (size_t)w + (size_t)sx) * 3, 3);
         }
@@ -127,7 +143,7 @@ static int decode(dec *s, const uint8_t *p, size_t n, const char *what, pl_image
     c->out_color_space = cmyk ? JCS_CMYK : JCS_RGB;
     jpeg_start_decompress(c);
     const int w = (int)c->output_width, h = (int)c->output_height;
-    int rc = pl_image_check_size(what, w, h);
+    int rc = pl_image_check_read_size(what, w, h);
     if (rc < 0) return rc;
     const int o = exif_orientation(c);
     const int swap = o >= 5;
@@ -167,10 +183,10 @@ static int decode(dec *s, const uint8_t *p, size_t n, const char *what, pl_image
     return PL_OK;
 }
 
-int pl_jpeg_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img,
-                        size_t *cap)
+int pl_jpeg_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img, size_t *cap)
 {
-    if (!p || !what || !img || !cap) return pl_error(PL_E_ARG, "pl_jpeg_decode_rgb8: NULL argument");
+    if (!p || !what || !img || !cap)
+        return pl_error(PL_E_ARG, "pl_jpeg_decode_rgb8: NULL argument");
     if (n == 0 || n > (size_t)0x7fffffff)
         return pl_error(PL_E_FORMAT, "%s: JPEG of %zu bytes", what, n);
     dec *s = calloc(1, sizeof *s);
@@ -202,8 +218,7 @@ int pl_jpeg_write_rgb8(const char *path, const pl_image_u8 *img, int quality)
     if (quality < 1 || quality > 100)
         return pl_error(PL_E_ARG, "%s: JPEG quality %d, expected 1..100", path, quality);
     if (img->width > 65500 || img->height > 65500)
-        return pl_error(PL_E_ARG, "%s: %dx%d is too large for JPEG", path, img->width,
-                        img->height);
+        return pl_error(PL_E_ARG, "%s: %dx%d is too large for JPEG", path, img->width, img->height);
     enc *s = calloc(1, sizeof *s);
     if (!s) return pl_error(PL_E_NOMEM, "%s: out of memory", path);
     init_err(&s->err);
@@ -249,8 +264,7 @@ int pl_codec_have_jpeg(void)
     return 0;
 }
 
-int pl_jpeg_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img,
-                        size_t *cap)
+int pl_jpeg_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img, size_t *cap)
 {
     (void)p, (void)n, (void)img, (void)cap;
     return pl_error(PL_E_UNSUPPORTED, "%s: this build has no libjpeg: cannot decode JPEG",

@@ -1,4 +1,5 @@
 /* Loading plugins on first use (port/plugin.h). */
+#include "core/image.h"
 #include "core/util.h"
 #include "port/plugin.h"
 
@@ -33,8 +34,25 @@ static void exe_dir(char *out, size_t n)
     snprintf(out, n, "%s", path[0] ? path : "/");
 }
 
+/* OpenCV reads its decoder limits from the environment once, when libopencv_imgcodecs is loaded
+ * (OPENCV_IO_MAX_IMAGE_PIXELS, default 2^30, checked on the header before imdecode allocates):
+ * hand it parlight's read limit (core/image.h) unless the user set them. Formats whose header
+ * port/image_files.c reads itself are checked before OpenCV anyway; this covers the rest (WebP,
+ * Sun raster, JPEG 2000, ...). A build that links OpenCV in (PLUGINS=0) loads it at start-up,
+ * before any flag is parsed: there only OpenCV's default applies to those formats. */
+static void opencv_limits(void)
+{
+    char v[32];
+    snprintf(v, sizeof v, "%lld", pl_image_max_pixels());
+    setenv("OPENCV_IO_MAX_IMAGE_PIXELS", v, 0);
+    snprintf(v, sizeof v, "%d", PL_IMAGE_MAX_SIDE);
+    setenv("OPENCV_IO_MAX_IMAGE_WIDTH", v, 0);
+    setenv("OPENCV_IO_MAX_IMAGE_HEIGHT", v, 0);
+}
+
 static void *load(const char *name, char *error, size_t error_len)
 {
+    if (strcmp(name, "opencv") == 0) opencv_limits();
     char file[64], dirs[4][PATH_MAX], tried[1024] = "";
     snprintf(file, sizeof file, "parlight-%s.so", name);
     int nd = 0;

@@ -24,7 +24,7 @@ typedef struct pngio {
     const uint8_t *p;
     size_t n, pos;
     char msg[160];
-    uint8_t *rows;  /* a 16-bit image, before scaling to 8 bits */
+    uint8_t *rows;   /* a 16-bit image, before scaling to 8 bits */
     png_bytep *rowp; /* row pointers handed to libpng */
 } pngio;
 
@@ -55,10 +55,10 @@ static int decode(png_structp png, png_infop info, pngio *s, const char *what, p
     png_read_info(png, info);
     const png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
     const int depth = png_get_bit_depth(png, info);
-    int rc = pl_image_check_size(what, w, h);
+    int rc = pl_image_check_read_size(what, w, h);
     if (rc < 0) return rc;
-    png_set_expand(png);        /* palette -> RGB, gray < 8 bits -> 8, tRNS -> alpha */
-    png_set_strip_alpha(png);   /* alpha dropped, colours kept as they are */
+    png_set_expand(png);      /* palette -> RGB, gray < 8 bits -> 8, tRNS -> alpha */
+    png_set_strip_alpha(png); /* alpha dropped, colours kept as they are */
     png_set_gray_to_rgb(png);
     png_set_interlace_handling(png);
     png_read_update_info(png, info);
@@ -71,8 +71,8 @@ static int decode(png_structp png, png_infop info, pngio *s, const char *what, p
     if (depth == 16) {
         size_t bytes;
         if (!pl_mul_size(bpp * w, h, &bytes) || !(s->rows = malloc(bytes)))
-            return pl_error(PL_E_NOMEM, "%s: out of memory decoding a %ux%u PNG", what,
-                            (unsigned)w, (unsigned)h);
+            return pl_error(PL_E_NOMEM, "%s: out of memory decoding a %ux%u PNG", what, (unsigned)w,
+                            (unsigned)h);
     }
     if (!(s->rowp = malloc(sizeof *s->rowp * h)))
         return pl_error(PL_E_NOMEM, "%s: out of memory", what);
@@ -92,8 +92,7 @@ static int decode(png_structp png, png_infop info, pngio *s, const char *what, p
     return PL_OK;
 }
 
-int pl_png_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img,
-                       size_t *cap)
+int pl_png_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img, size_t *cap)
 {
     if (!p || !what || !img || !cap) return pl_error(PL_E_ARG, "pl_png_decode_rgb8: NULL argument");
     pngio *s = calloc(1, sizeof *s);
@@ -172,8 +171,7 @@ int pl_codec_have_png(void)
     return 0;
 }
 
-int pl_png_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img,
-                       size_t *cap)
+int pl_png_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u8 *img, size_t *cap)
 {
     (void)p, (void)n, (void)img, (void)cap;
     return pl_error(PL_E_UNSUPPORTED, "%s: this build has no libpng: cannot decode PNG",

@@ -257,6 +257,11 @@ static int udp_write(pl_sink *s, const char *line, size_t len)
 
 int pl_sink_open(const char *spec, pl_sink **out)
 {
+    return pl_sink_open_opts(spec, NULL, out);
+}
+
+int pl_sink_open_opts(const char *spec, const pl_sink_options *opts, pl_sink **out)
+{
     if (!out) return pl_error(PL_E_ARG, "pl_sink_open: NULL output");
     *out = NULL;
     sink_spec sp;
@@ -267,8 +272,6 @@ int pl_sink_open(const char *spec, pl_sink **out)
     s->kind = sp.kind;
     s->fd = -1;
     snprintf(s->spec, sizeof s->spec, "%s", spec);
-    for (int i = 0; i < PL_SINK_MAX_CLIENTS; i++)
-        s->clients[i].fd = -1;
     s->next_client_id = 1;
     switch (sp.kind) {
     case SINK_STDOUT:
@@ -279,13 +282,16 @@ int pl_sink_open(const char *spec, pl_sink **out)
         rc = udp_open(s, &sp);
         break;
     case SINK_TCP:
-        rc = sink_server_open_tcp(s, &sp);
+        rc = sink_server_init(s, opts);
+        if (rc == 0) rc = sink_server_open_tcp(s, &sp);
         break;
     case SINK_UNIX:
-        rc = sink_server_open_unix(s, &sp);
+        rc = sink_server_init(s, opts);
+        if (rc == 0) rc = sink_server_open_unix(s, &sp);
         break;
     }
     if (rc < 0) {
+        if (s->kind == SINK_TCP || s->kind == SINK_UNIX) sink_server_close(s);
         free(s);
         return rc;
     }
@@ -311,6 +317,11 @@ int pl_sink_write(pl_sink *s, const char *line, size_t len)
         return sink_server_write(s, line, len);
     }
     return pl_error(PL_E_INTERNAL, "sink '%s': bad kind", s->spec);
+}
+
+int pl_sink_service(pl_sink *s)
+{
+    return s && (s->kind == SINK_TCP || s->kind == SINK_UNIX) ? sink_server_service(s) : 0;
 }
 
 int pl_sink_next_event(pl_sink *s, char *msg, size_t cap)
@@ -375,7 +386,7 @@ struct pl_sinks {
     int next_event; /* round robin over the sinks' events */
 };
 
-int pl_sinks_open(const char *const *specs, int n, pl_sinks **out)
+int pl_sinks_open(const char *const *specs, int n, const pl_sink_options *opts, pl_sinks **out)
 {
     if (!out) return pl_error(PL_E_ARG, "pl_sinks_open: NULL output");
     *out = NULL;
@@ -394,7 +405,7 @@ int pl_sinks_open(const char *const *specs, int n, pl_sinks **out)
         n = 1;
     }
     for (int i = 0; i < n; i++) {
-        int rc = pl_sink_open(specs[i], &m->sink[i]);
+        int rc = pl_sink_open_opts(specs[i], opts, &m->sink[i]);
         if (rc < 0) {
             pl_sinks_close(m);
             return rc;
@@ -419,6 +430,14 @@ int pl_sinks_write(pl_sinks *m, const char *line, size_t len)
     }
     if (first < 0) return pl_error(first, "%s", msg);
     return 0;
+}
+
+int pl_sinks_service(pl_sinks *m)
+{
+    int n = 0;
+    for (int i = 0; m && i < m->n; i++)
+        n += pl_sink_service(m->sink[i]);
+    return n;
 }
 
 int pl_sinks_next_event(pl_sinks *m, char *msg, size_t cap)

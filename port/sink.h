@@ -18,8 +18,9 @@
  *
  * Writing never blocks the caller (except stdout, see below) and never raises SIGPIPE:
  *   - stream servers (tcp, unix) have no thread: each pl_sink_write first accepts pending
- *     clients (non-blocking listening socket, at most PL_SINK_MAX_CLIENTS at once; extra ones
- *     are closed at once and counted), reads and discards what clients send, then queues the
+ *     clients (non-blocking listening socket, at most max_clients at once; an extra one is sent
+ *     one line {"error":"refused","reason":"..."}, closed and counted), reads and discards what
+ *     clients send (with a token: see pl_sink_options), then queues the
  *     line for every client and sends what each socket takes (MSG_DONTWAIT | MSG_NOSIGNAL).
  *     Each client has a queue of PL_SINK_QUEUE_BYTES (64 KiB) beyond the kernel's socket buffer
  *     (SO_SNDBUF set to PL_SINK_SOCKET_BUF); a client whose queue would overflow is dropped, as is
@@ -46,7 +47,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define PL_SINK_MAX_CLIENTS 16
+#define PL_SINK_MAX_CLIENTS 16     /* readers at once per stream server by default */
+#define PL_SINK_CLIENTS_LIMIT 1024 /* the most max_clients may be */
+#define PL_SINK_TOKEN_MAX 256      /* longest token, bytes */
+#define PL_SINK_TOKEN_MS 2000      /* how long a new client has to send the token */
 #define PL_SINK_QUEUE_BYTES (64 * 1024)
 #define PL_SINK_SOCKET_BUF (64 * 1024)
 #define PL_SINK_UDP_MAX 65507 /* the largest UDP payload over IPv4 */
@@ -66,17 +70,47 @@ typedef struct pl_sink_stats {
     uint64_t accepted;      /* clients accepted since open */
     uint64_t dropped_slow;  /* clients dropped because their queue would overflow */
     uint64_t disconnected;  /* clients gone (closed, reset) */
-    uint64_t refused;       /* connections closed at once: PL_SINK_MAX_CLIENTS reached */
+    uint64_t refused;       /* connections closed at once: max_clients reached */
+    uint64_t unauthorized;  /* clients closed for a wrong, missing or late token */
 } pl_sink_stats;
 
-/* Opens the sink described by spec (see above). *out owned by the caller (pl_sink_close). */
+/* How stream servers (tcp, unix) admit readers; other sinks ignore it. Zeroed = the defaults.
+ *   max_clients  readers at once, 1..PL_SINK_CLIENTS_LIMIT (0: PL_SINK_MAX_CLIENTS). A client
+ *                that finds every slot taken reads {"error":"refused","reason":"N clients
+ *                already connected (--max-clients)"} and EOF. A client waiting for its token holds a slot.
+ *   unix_mode    permission bits of a unix: socket file, created with them (umask set around
+ *                bind, so there is no moment with wider ones): 0 means 0600, owner only.
+ *                Connecting needs write permission: 0660 lets the file's group read the stream.
+ *   token        NULL or "": none. Else every new client must first send this token and '\n'
+ *                (a trailing '\r' is ignored) within token_ms (0: PL_SINK_TOKEN_MS); until then
+ *                it receives nothing. Wrong, too long or late: a refusal line and EOF.
+ *                1..PL_SINK_TOKEN_MAX bytes, no control characters. The token crosses the
+ *                network in clear: it keeps out whoever can reach the port but cannot read the
+ *                traffic (docs/OUTPUT.md, "Who can read the stream"). */
+typedef struct pl_sink_options {
+    int max_clients;
+    unsigned unix_mode;
+    const char *token;
+    int token_ms;
+} pl_sink_options;
+
+/* Opens the sink described by spec (see above) with the default options. *out owned by the
+ * caller (pl_sink_close). */
 int pl_sink_open(const char *spec, pl_sink **out);
+
+/* The same with options (NULL: the defaults); bad options are PL_E_ARG naming the option. */
+int pl_sink_open_opts(const char *spec, const pl_sink_options *opts, pl_sink **out);
 
 /* Sends one line: len bytes, ending with '\n' and holding no other '\n' (PL_E_ARG otherwise).
  * Returns 0 when the line was accepted (even if some client was dropped, or no client is
  * connected), or a negative status for this line only (message names the sink); the sink stays
  * usable either way. */
 int pl_sink_write(pl_sink *sink, const char *line, size_t len);
+
+/* Accepts pending readers and reads what they sent (tokens), without writing a line: for a
+ * caller waiting for readers before its first line. Returns the readers admitted now (connected
+ * and past the token, if any); 0 for stdout and udp. */
+int pl_sink_service(pl_sink *sink);
 
 /* Copies the oldest pending event message into msg (cap bytes, truncated, NUL-terminated) and
  * returns 1, or returns 0 when there is none. At most 32 are kept; older ones are lost and one
@@ -102,14 +136,17 @@ void pl_sink_close(pl_sink *sink);
 
 typedef struct pl_sinks pl_sinks;
 
-/* Opens every spec (n in 0..PL_SINKS_MAX; n == 0 means one "stdout" sink), all or none: on a
- * failure the ones already open are closed and the error names the failing spec. The same spec
- * twice is PL_E_ARG. */
-int pl_sinks_open(const char *const *specs, int n, pl_sinks **out);
+/* Opens every spec (n in 0..PL_SINKS_MAX; n == 0 means one "stdout" sink) with the same options
+ * (NULL: the defaults), all or none: on a failure the ones already open are closed and the error
+ * names the failing spec. The same spec twice is PL_E_ARG. */
+int pl_sinks_open(const char *const *specs, int n, const pl_sink_options *opts, pl_sinks **out);
 
 /* Writes the line to every sink. Returns 0, or the first sink's negative status (message names
  * it) after still writing to all the others. */
 int pl_sinks_write(pl_sinks *sinks, const char *line, size_t len);
+
+/* pl_sink_service on every sink: the readers admitted now, summed. */
+int pl_sinks_service(pl_sinks *sinks);
 
 /* Pending event of any sink, as pl_sink_next_event. */
 int pl_sinks_next_event(pl_sinks *sinks, char *msg, size_t cap);

@@ -1,6 +1,6 @@
 /* TCP and Unix stream-socket servers for the JSON-lines stream (port/sink.h): no thread; every
- * write accepts pending clients, discards what they send, queues the line per client and sends
- * what each socket takes, without blocking. */
+ * write accepts pending clients, reads their token or discards what they send, queues the line
+ * per admitted client and sends what each socket takes, without blocking. */
 #include <errno.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -28,7 +28,78 @@ static void client_drop(pl_sink *s, sink_client *c)
     c->buf = NULL;
     c->off = c->len = 0;
     c->read_closed = 0;
+    c->pending = 0;
+    c->tok_len = 0;
     s->stats.clients--;
+}
+
+/* One JSON line telling a client why it is turned away, {"error":"refused","reason":"..."} (a
+ * JSON-lines reader parses it like a frame), sent if the socket takes it now: it is closed right
+ * after, so nothing waits for a slow reader. Reasons are parlight's own text, without quotes. */
+static void tell_refused(int fd, const char *reason)
+{
+    char msg[160];
+    int n = snprintf(msg, sizeof msg, "{\"error\":\"refused\",\"reason\":\"%s\"}\n", reason);
+    if (n > 0)
+        (void)send(fd, msg, (size_t)n < sizeof msg ? (size_t)n : sizeof msg - 1,
+                   MSG_DONTWAIT | MSG_NOSIGNAL);
+}
+
+static void client_unauthorized(pl_sink *s, sink_client *c, const char *why)
+{
+    tell_refused(c->fd, why);
+    sink_event(s, "client %llu (%s) refused: %s", (unsigned long long)c->id, c->peer, why);
+    s->stats.unauthorized++;
+    client_drop(s, c);
+}
+
+/* Equal in time independent of where the first difference is (a token compare). */
+static int same_secret(const char *a, size_t na, const char *b, size_t nb)
+{
+    unsigned char d = (unsigned char)(na != nb);
+    for (size_t i = 0; i < PL_SINK_TOKEN_MAX; i++) {
+        unsigned char x = i < na ? (unsigned char)a[i] : 0, y = i < nb ? (unsigned char)b[i] : 0;
+        d |= (unsigned char)(x ^ y);
+    }
+    return d == 0;
+}
+
+int sink_server_init(pl_sink *s, const pl_sink_options *o)
+{
+    static const pl_sink_options defaults = {0, 0, NULL, 0};
+    if (!o) o = &defaults;
+    s->max_clients = o->max_clients ? o->max_clients : PL_SINK_MAX_CLIENTS;
+    if (s->max_clients < 1 || s->max_clients > PL_SINK_CLIENTS_LIMIT)
+        return pl_error(PL_E_ARG, "sink '%s': max clients %d: expected 1..%d", s->spec,
+                        o->max_clients, PL_SINK_CLIENTS_LIMIT);
+    s->unix_mode = o->unix_mode ? o->unix_mode : 0600;
+    if (s->unix_mode & ~0777u)
+        return pl_error(PL_E_ARG, "sink '%s': socket mode %o: expected permission bits (0..0777)",
+                        s->spec, s->unix_mode);
+    s->token_ms = o->token_ms ? o->token_ms : PL_SINK_TOKEN_MS;
+    if (s->token_ms < 1 || s->token_ms > 600000)
+        return pl_error(PL_E_ARG, "sink '%s': token wait %d ms: expected 1..600000", s->spec,
+                        o->token_ms);
+    if (o->token && o->token[0]) {
+        size_t n = strlen(o->token);
+        if (n > PL_SINK_TOKEN_MAX)
+            return pl_error(PL_E_ARG, "sink '%s': the token has %zu bytes, at most %d", s->spec, n,
+                            PL_SINK_TOKEN_MAX);
+        for (size_t i = 0; i < n; i++)
+            if ((unsigned char)o->token[i] < 0x20 || o->token[i] == 0x7f)
+                return pl_error(PL_E_ARG, "sink '%s': the token holds a control character",
+                                s->spec);
+        memcpy(s->token, o->token, n + 1);
+    }
+    s->clients = calloc((size_t)s->max_clients, sizeof *s->clients);
+    s->pf = calloc((size_t)s->max_clients, sizeof *s->pf);
+    s->pf_idx = calloc((size_t)s->max_clients, sizeof *s->pf_idx);
+    if (!s->clients || !s->pf || !s->pf_idx)
+        return pl_error(PL_E_NOMEM, "sink '%s': out of memory for %d clients", s->spec,
+                        s->max_clients);
+    for (int i = 0; i < s->max_clients; i++)
+        s->clients[i].fd = -1;
+    return 0;
 }
 
 static void client_gone(pl_sink *s, sink_client *c, const char *why)
@@ -79,24 +150,25 @@ static void accept_pending(pl_sink *s)
         }
         s->last_accept_errno = 0;
         sink_client *c = NULL;
-        for (int i = 0; i < PL_SINK_MAX_CLIENTS && !c; i++)
+        for (int i = 0; i < s->max_clients && !c; i++)
             if (s->clients[i].fd < 0) c = &s->clients[i];
         char peer[64];
         if (s->kind == SINK_TCP)
             sink_format_addr(&ss, peer, sizeof peer);
         else
             snprintf(peer, sizeof peer, "unix");
-        if (!c) {
-            close(fd);
-            s->stats.refused++;
-            sink_event(s, "refused a client (%s): %d clients already", peer, PL_SINK_MAX_CLIENTS);
-            continue;
-        }
-        char *buf = malloc(PL_SINK_QUEUE_BYTES);
+        char *buf = c ? malloc(PL_SINK_QUEUE_BYTES) : NULL;
         if (!buf) {
+            char why[96];
+            if (c)
+                snprintf(why, sizeof why, "out of memory");
+            else
+                snprintf(why, sizeof why, "%d client%s already connected (--max-clients)",
+                         s->max_clients, s->max_clients == 1 ? "" : "s");
+            tell_refused(fd, why);
             close(fd);
             s->stats.refused++;
-            sink_event(s, "refused a client (%s): out of memory", peer);
+            sink_event(s, "refused a client (%s): %s", peer, why);
             continue;
         }
         int sndbuf = PL_SINK_SOCKET_BUF, one = 1;
@@ -108,18 +180,62 @@ static void accept_pending(pl_sink *s)
         c->buf = buf;
         c->off = c->len = 0;
         c->read_closed = 0;
+        c->pending = s->token[0] != '\0';
+        c->tok_len = 0;
+        c->token_deadline_ns = pl_now_ns() + (int64_t)s->token_ms * 1000000;
         s->stats.clients++;
         s->stats.accepted++;
-        sink_event(s, "client %llu connected (%s)", (unsigned long long)c->id, c->peer);
+        sink_event(s, "client %llu connected (%s)%s", (unsigned long long)c->id, c->peer,
+                   c->pending ? ", waiting for its token" : "");
     }
 }
 
-/* Discards what clients sent (the stream is one-way) and notices closed connections. */
+/* A waiting client's bytes: the token line, or a refusal. */
+static void read_token(pl_sink *s, sink_client *c)
+{
+    const size_t cap = sizeof c->tok;
+    ssize_t got = recv(c->fd, c->tok + c->tok_len, cap - c->tok_len, MSG_DONTWAIT);
+    if (got < 0) {
+        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK)
+            client_gone(s, c, strerror(errno));
+        return;
+    }
+    if (got == 0) {
+        client_gone(s, c, "closed before sending its token");
+        return;
+    }
+    c->tok_len += (size_t)got;
+    char *nl = memchr(c->tok, '\n', c->tok_len);
+    if (!nl) {
+        if (c->tok_len == cap) client_unauthorized(s, c, "token line too long");
+        return;
+    }
+    size_t n = (size_t)(nl - c->tok);
+    if (n > 0 && c->tok[n - 1] == '\r') n--;
+    if (!same_secret(c->tok, n, s->token, strlen(s->token))) {
+        client_unauthorized(s, c, "wrong token");
+        return;
+    }
+    c->pending = 0; /* what followed the token line is discarded like any client input */
+    sink_event(s, "client %llu (%s) gave the token", (unsigned long long)c->id, c->peer);
+}
+
+/* Reads waiting clients' tokens, discards what admitted clients send (the stream is one-way),
+ * notices closed connections and turns away clients whose token is late. */
 static void service_clients(pl_sink *s)
 {
-    struct pollfd pf[PL_SINK_MAX_CLIENTS];
-    int idx[PL_SINK_MAX_CLIENTS], n = 0;
-    for (int i = 0; i < PL_SINK_MAX_CLIENTS; i++) {
+    struct pollfd *pf = s->pf;
+    int *idx = s->pf_idx, n = 0;
+    const int64_t now = pl_now_ns();
+    for (int i = 0; i < s->max_clients; i++) {
+        sink_client *c = &s->clients[i];
+        if (c->fd >= 0 && c->pending && now > c->token_deadline_ns) {
+            char why[64];
+            snprintf(why, sizeof why, "no token within %d ms", s->token_ms);
+            client_unauthorized(s, c, why);
+        }
+    }
+    for (int i = 0; i < s->max_clients; i++) {
         if (s->clients[i].fd < 0) continue;
         pf[n].fd = s->clients[i].fd;
         pf[n].events = s->clients[i].read_closed ? 0 : POLLIN;
@@ -147,6 +263,10 @@ static void service_clients(pl_sink *s)
             continue;
         }
         if (!(re & POLLIN)) continue;
+        if (c->pending) {
+            read_token(s, c);
+            continue;
+        }
         char scratch[4096];
         for (int j = 0; j < READ_CHUNKS_PER_WRITE; j++) {
             ssize_t got = recv(c->fd, scratch, sizeof scratch, MSG_DONTWAIT);
@@ -171,9 +291,9 @@ int sink_server_write(pl_sink *s, const char *line, size_t len)
     }
     accept_pending(s);
     service_clients(s);
-    for (int i = 0; i < PL_SINK_MAX_CLIENTS; i++) {
+    for (int i = 0; i < s->max_clients; i++) {
         sink_client *c = &s->clients[i];
-        if (c->fd < 0 || client_flush(s, c) < 0) continue;
+        if (c->fd < 0 || c->pending || client_flush(s, c) < 0) continue;
         if (c->len + len > PL_SINK_QUEUE_BYTES) {
             sink_event(s, "client %llu (%s) dropped: a slow reader (%zu bytes queued, limit %d)",
                        (unsigned long long)c->id, c->peer, c->len, PL_SINK_QUEUE_BYTES);
@@ -191,6 +311,16 @@ int sink_server_write(pl_sink *s, const char *line, size_t len)
     }
     s->stats.lines++;
     return 0;
+}
+
+int sink_server_service(pl_sink *s)
+{
+    accept_pending(s);
+    service_clients(s);
+    int n = 0;
+    for (int i = 0; i < s->max_clients; i++)
+        n += s->clients[i].fd >= 0 && !s->clients[i].pending;
+    return n;
 }
 
 int sink_server_open_tcp(pl_sink *s, const sink_spec *sp)
@@ -273,8 +403,14 @@ int sink_server_open_unix(pl_sink *s, const sink_spec *sp)
 
     int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) return pl_error(PL_E_DEVICE, "sink '%s': socket: %s", s->spec, strerror(errno));
-    if (bind(fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
-        int err = errno;
+    /* the file is born with unix_mode: a chmod after bind would leave a window with the
+     * umask's bits (the process's umask is restored at once; sinks open before any thread) */
+    mode_t old_mask = umask((mode_t)(~s->unix_mode & 0777u));
+    int b = bind(fd, (struct sockaddr *)&sa, sizeof sa);
+    int bind_err = errno;
+    umask(old_mask);
+    if (b < 0) {
+        int err = bind_err;
         close(fd);
         return pl_error(err == EADDRINUSE ? PL_E_DEVICE : PL_E_IO, "sink '%s': cannot bind %s: %s",
                         s->spec, sp->path, strerror(err));
@@ -302,9 +438,9 @@ void sink_server_close(pl_sink *s)
 {
     int64_t deadline = pl_now_ns() + (int64_t)PL_SINK_CLOSE_MS * 1000000;
     for (;;) {
-        struct pollfd pf[PL_SINK_MAX_CLIENTS];
-        int idx[PL_SINK_MAX_CLIENTS], n = 0;
-        for (int i = 0; i < PL_SINK_MAX_CLIENTS; i++) {
+        struct pollfd *pf = s->pf;
+        int *idx = s->pf_idx, n = 0;
+        for (int i = 0; i < s->max_clients && s->clients; i++) {
             if (s->clients[i].fd < 0 || s->clients[i].len == 0) continue;
             pf[n].fd = s->clients[i].fd;
             pf[n].events = POLLOUT;
@@ -318,8 +454,14 @@ void sink_server_close(pl_sink *s)
         for (int k = 0; k < n && r > 0; k++)
             if (pf[k].revents) client_flush(s, &s->clients[idx[k]]);
     }
-    for (int i = 0; i < PL_SINK_MAX_CLIENTS; i++)
+    for (int i = 0; i < s->max_clients && s->clients; i++)
         if (s->clients[i].fd >= 0) client_drop(s, &s->clients[i]);
+    free(s->clients);
+    free(s->pf);
+    free(s->pf_idx);
+    s->clients = NULL;
+    s->pf = NULL;
+    s->pf_idx = NULL;
     if (s->fd >= 0) close(s->fd);
     s->fd = -1;
     struct stat st;

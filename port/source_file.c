@@ -11,6 +11,7 @@
 #include <strings.h>
 #include <sys/stat.h>
 
+#include "core/file.h"
 #include "core/util.h"
 #include "port/image.h"
 #include "port/libcamera_src.h"
@@ -182,8 +183,9 @@ int pl_source_open_path(const char *path, pl_source **out)
     struct stat st;
     if (stat(path, &st) != 0)
         return pl_error(PL_E_IO, "%s: cannot open: %s", path, strerror(errno));
-    if (!S_ISDIR(st.st_mode) && !S_ISREG(st.st_mode))
-        return pl_error(PL_E_IO, "%s: not a regular file or a directory", path);
+    if (!S_ISDIR(st.st_mode) && !S_ISREG(st.st_mode)) /* a FIFO would block OpenCV's open */
+        return pl_error(PL_E_IO, "%s: %s, expected a regular file or a directory", path,
+                        pl_file_not_regular(st.st_mode));
 
     pl_source *s = calloc(1, sizeof *s);
     if (!s) return pl_error(PL_E_NOMEM, "%s: out of memory", path);

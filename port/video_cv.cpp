@@ -57,7 +57,7 @@ int to_rgb8(pl_video *v, pl_image_u8 *img, size_t *cap)
 {
     const cv::Mat &m = v->frame;
     const char *path = v->path.c_str();
-    int rc = pl_image_check_size(path, m.cols, m.rows);
+    int rc = pl_image_check_read_size(path, m.cols, m.rows);
     if (rc < 0) return rc;
     if (m.depth() != CV_8U || (m.channels() != 1 && m.channels() != 3 && m.channels() != 4))
         return pl_error(PL_E_UNSUPPORTED,

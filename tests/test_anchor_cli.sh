@@ -23,23 +23,7 @@ T=${PL_TEST_TMP:-$(mktemp -d)}/anchor_cli
 "$PY" -c 'import numpy, PIL' 2>/dev/null || { echo "skip: $PY lacks numpy/PIL"; exit 77; }
 rm -rf "$T"
 mkdir -p "$T/frames" "$T/panos"
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-ok() { echo "ok   $*"; }
-# expect CODE PATTERN -- command...: exit status CODE and stderr matching PATTERN
-expect() {
-    local code=$1 pat=$2
-    shift 3
-    timeout 120 "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ $rc -ne "$code" ]; then
-        fail "$* -> exit $rc, expected $code ($(head -c 300 "$T/err"))"
-    elif [ -n "$pat" ] && ! grep -qE -- "$pat" "$T/err"; then
-        fail "$* -> stderr '$(head -c 300 "$T/err")' lacks /$pat/"
-    else
-        ok "exit $rc: $*  $(tail -n 1 "$T/err" | head -c 140)"
-    fi
-}
+. "$(dirname "$0")/cli_helpers.sh"
 
 # --- frames: 4:3 PNGs (what the network sees is the whole frame), dark, mid and bright ---
 "$PY" - "$T/frames" <<'PY' || { echo "FAIL: cannot write the test frames"; exit 1; }
@@ -235,6 +219,5 @@ expect 1 "anchor off" -- "$PY" "$FIT" "$T/anch.json"
 echo '{"not": "an eval"}' >"$T/junk.json"
 expect 1 "not the --json output" -- "$PY" "$FIT" "$T/junk.json"
 
-[ $fails -eq 0 ] && { echo "all passed"; exit 0; }
-echo "$fails failure(s)"
+finish
 exit 1

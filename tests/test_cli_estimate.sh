@@ -33,13 +33,20 @@ n=$(ls tests/data/frames/*.jpg | wc -l)
 import json, math, sys
 for line in open(sys.argv[1]):
     f = json.loads(line)
-    for k in ("frame", "t_ns", "source", "lights", "ambient", "primary", "sh9", "timing_ms", "dropped"):
+    for k in ("frame", "t_ns", "source", "lights", "ambient", "primary", "sh9", "engine", "timing_ms",
+              "dropped"):
         assert k in f, k
     assert len(f["lights"]) == 3 and len(f["sh9"]) == 27 and len(f["ambient"]) == 3
     for L in f["lights"]:
         assert abs(math.sqrt(sum(x * x for x in L["dir"])) - 1) < 1e-5, L
         assert L["distance_m"] > 0 and L["solid_angle_sr"] > 0 and min(L["rgb"]) >= 0, L
     assert f["source"].startswith("dir:tests/data/frames/"), f["source"]
+    e = f["engine"]
+    assert e["dir"] == f["primary"]["dir"] and len(e["sh9"]) == 27 and min(e["intensity"]) >= 0, e
+    # the probe lost exactly a delta light of that intensity: its L00 drops by I * Y00
+    for c in range(3):
+        d = f["sh9"][c] - e["sh9"][c] - e["intensity"][c] * 0.28209479
+        assert abs(d) <= 1e-4 * max(1.0, abs(f["sh9"][c])), (c, d)
 print("schema ok")
 PY
 

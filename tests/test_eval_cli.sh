@@ -17,22 +17,7 @@ T=${PL_TEST_TMP:-$(mktemp -d)}/eval_cli
 [ -f "$M" ] || { echo "skip: no $M (make build/models/seeded-n3.plm)"; exit 77; }
 rm -rf "$T"
 mkdir -p "$T/synth" "$T/empty" "$T/junk"
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-# expect CODE PATTERN -- command...: exit status CODE and stderr matching PATTERN
-expect() {
-    local code=$1 pat=$2
-    shift 3
-    timeout 120 "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ $rc -ne "$code" ]; then
-        fail "$* -> exit $rc, expected $code ($(head -c 400 "$T/err"))"
-    elif [ -n "$pat" ] && ! grep -qE -- "$pat" "$T/err"; then
-        fail "$* -> stderr '$(head -c 400 "$T/err")' lacks /$pat/"
-    else
-        echo "ok   exit $rc: $*  $(tail -n 1 "$T/err" | head -c 160)"
-    fi
-}
+. "$(dirname "$0")/cli_helpers.sh"
 
 # --- a panorama with one strong light above and to the right, and a dim ambient ---
 cat >"$T/one.json" <<'J'
@@ -159,5 +144,5 @@ else
     echo "skip (part): no $E"
 fi
 
-[ $fails -eq 0 ] || { echo "$fails failure(s)"; exit 1; }
+finish
 echo "all eval CLI checks passed"

@@ -225,7 +225,7 @@ static void test_bad_files(const char *real_exr, const char *real_hdr)
         memcpy(size_at, "\x00\x00\x00\x60", 4);
         spit(tmp("attr-size.exr"), one, one_len);
         expect_error(tmp("attr-size.exr"), PL_E_FORMAT, 0, "EXR attribute of 1.5 GB");
-        CHECK(strstr(pl_last_error(), "'channels' (chlist) declares 1610612736 bytes"),
+        CHECK(strstr(pl_last_error(), "'channels'") && strstr(pl_last_error(), "1610612736"),
               "attribute size message: %s", pl_last_error());
     }
     free(one);

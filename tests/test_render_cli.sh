@@ -10,15 +10,7 @@ P="$BUILD/parlight"
 T=${PL_TEST_TMP:-$(mktemp -d)}/render_cli
 if [ ! -x "$P" ]; then echo "skip: $P not built"; exit 77; fi
 rm -rf "$T"; mkdir -p "$T"
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-# expect CODE PATTERN -- command...: exit status CODE and stderr matching PATTERN
-expect() {
-    local code=$1 pat=$2; shift 3
-    "$@" >"$T/out" 2>"$T/err"; local rc=$?
-    [ $rc -eq "$code" ] || fail "$* -> exit $rc, expected $code ($(head -c 300 "$T/err"))"
-    [ -z "$pat" ] || grep -qE -- "$pat" "$T/err" || fail "$* -> stderr '$(head -c 300 "$T/err")' lacks /$pat/"
-}
+. "$(dirname "$0")/cli_helpers.sh"
 
 cat >"$T/L.json" <<'J'
 {"frame": 1, "lights":[{"dir":[0.3,0.8,-0.5],"distance_m":2.5,"solid_angle_sr":0.15,"rgb":[40,36,30]},
@@ -105,5 +97,5 @@ else
     echo "note: $PANO absent, panorama part not run"
 fi
 
-[ $fails -eq 0 ] || { echo "$fails failures"; exit 1; }
+finish
 echo ok

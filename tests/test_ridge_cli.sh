@@ -22,22 +22,8 @@ T=${PL_TEST_TMP:-$(mktemp -d)}/ridge_cli
     { echo "skip: no train panoramas in $HDRI (set PL_SHARED)"; exit 77; }
 rm -rf "$T"
 mkdir -p "$T/pano" "$T/m"
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-# expect CODE PATTERN -- command...: exit status CODE and stderr matching PATTERN
-expect() {
-    local code=$1 pat=$2
-    shift 3
-    timeout 300 "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ $rc -ne "$code" ]; then
-        fail "$* -> exit $rc, expected $code ($(head -c 600 "$T/err"))"
-    elif [ -n "$pat" ] && ! grep -qE -- "$pat" "$T/err"; then
-        fail "$* -> stderr '$(head -c 400 "$T/err")' lacks /$pat/"
-    else
-        echo "ok   exit $rc: $*  $(tail -n 1 "$T/err" | head -c 160)"
-    fi
-}
+EXPECT_TIMEOUT=300
+. "$(dirname "$0")/cli_helpers.sh"
 
 expect 0 "" -- "$PY" tools/train/make_dataset.py --out "$T/data" --hdri "$HDRI" --limit 2 \
     --crops-per-pano 6 --gt-map 0 --jobs 2 --parlight "$P" --quiet
@@ -149,5 +135,4 @@ expect 1 "nofile.json" -- "$P" eval --model "$M" --hdr "$T/pano" --crops 1 --rid
 echo "not json" >"$T/m/parlight-ridge.json"
 expect 1 "parlight-ridge.json" -- "$P" eval --model "$T/m/$(basename "$M")" --hdr "$T/pano" --crops 1
 
-[ $fails -eq 0 ] && echo "all ok" || echo "$fails failure(s)"
-[ $fails -eq 0 ]
+finish

@@ -68,6 +68,26 @@ static int connect_unix(const char *path)
     return fd;
 }
 
+/* Reads one line (up to and with '\n', NUL-terminated) within timeout_ms, a byte at a time so
+ * nothing after it is consumed. Returns its length, 0 on EOF/timeout before a newline. */
+static size_t read_line(int fd, char *buf, size_t cap, int timeout_ms)
+{
+    size_t n = 0;
+    double end = now_s() + timeout_ms / 1000.0;
+    buf[0] = '\0';
+    while (n + 1 < cap) {
+        int left = (int)((end - now_s()) * 1000);
+        if (left <= 0) return 0;
+        struct pollfd pf = {fd, POLLIN, 0};
+        if (poll(&pf, 1, left) <= 0) continue;
+        ssize_t r = recv(fd, buf + n, 1, 0);
+        if (r <= 0) return 0;
+        buf[++n] = '\0';
+        if (buf[n - 1] == '\n') return n;
+    }
+    return 0;
+}
+
 /* Reads exactly n bytes within timeout_ms (poll between reads). Returns bytes read. */
 static size_t read_bytes(int fd, char *buf, size_t n, int timeout_ms)
 {
@@ -504,9 +524,135 @@ static void test_client_limit(void)
     pl_sink_get_stats(s, &st);
     CHECK(st.clients == PL_SINK_MAX_CLIENTS && st.refused == 2, "clients %d, refused %llu",
           st.clients, (unsigned long long)st.refused);
+    /* a refused client is told why, then EOF */
+    char got[256] = "";
+    size_t n = read_line(fds[PL_SINK_MAX_CLIENTS], got, sizeof got, 3000);
+    CHECK(n > 0 &&
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"16 clients already connected (--max-clients)\"}\n"),
+          "refused client read '%s'", got);
+    CHECK(read_bytes(fds[PL_SINK_MAX_CLIENTS], got, 1, 3000) == 0, "EOF after the refusal");
     pl_sink_close(s);
     for (int i = 0; i < PL_SINK_MAX_CLIENTS + 2; i++)
         if (fds[i] >= 0) close(fds[i]);
+}
+
+/* ---- options: --max-clients, --token-file, --unix-mode ----------------------------------- */
+
+static pl_sink *open_tcp_opts(const pl_sink_options *o, int *port)
+{
+    pl_sink *s = NULL;
+    int rc = pl_sink_open_opts("tcp://127.0.0.1:0", o, &s);
+    CHECK(rc == 0, "open tcp with options: %s", pl_last_error());
+    *port = s ? addr_port(pl_sink_address(s)) : -1;
+    return s;
+}
+
+static void test_max_clients(void)
+{
+    pl_sink_options o = {.max_clients = 2};
+    int port;
+    pl_sink *s = open_tcp_opts(&o, &port);
+    if (!s) return;
+    int a = connect_tcp(port, 0), b = connect_tcp(port, 0), c = connect_tcp(port, 0);
+    CHECK(pl_sink_write(s, "{\"n\":1}\n", 8) == 0, "write");
+    char got[256] = "";
+    CHECK(read_line(a, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "a: '%s'", got);
+    CHECK(read_line(b, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "b: '%s'", got);
+    CHECK(read_line(c, got, sizeof got, 3000) > 0 &&
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"2 clients already connected (--max-clients)\"}\n"),
+          "c: '%s'", got);
+    pl_sink_stats st;
+    pl_sink_get_stats(s, &st);
+    CHECK(st.clients == 2 && st.refused == 1, "clients %d, refused %llu", st.clients,
+          (unsigned long long)st.refused);
+    pl_sink_close(s);
+    close(a);
+    close(b);
+    close(c);
+
+    /* bad options are refused at open, naming the problem */
+    pl_sink_options bad[] = {{.max_clients = -1},
+                             {.max_clients = PL_SINK_CLIENTS_LIMIT + 1},
+                             {.unix_mode = 01777},
+                             {.token_ms = -5},
+                             {.token = "a\tb"}};
+    const char *what[] = {"max clients", "max clients", "socket mode", "token wait",
+                          "control character"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        pl_sink *x = NULL;
+        int rc = pl_sink_open_opts("tcp://127.0.0.1:0", &bad[i], &x);
+        CHECK(rc == PL_E_ARG && x == NULL && strstr(pl_last_error(), what[i]),
+              "bad option %zu: rc %d '%s'", i, rc, pl_last_error());
+        pl_sink_close(x);
+    }
+    char long_token[PL_SINK_TOKEN_MAX + 2];
+    memset(long_token, 'k', sizeof long_token - 1);
+    long_token[sizeof long_token - 1] = '\0';
+    pl_sink_options lt = {.token = long_token};
+    pl_sink *x = NULL;
+    CHECK(pl_sink_open_opts("tcp://127.0.0.1:0", &lt, &x) == PL_E_ARG && !x, "long token");
+}
+
+static void test_token(void)
+{
+    pl_sink_options o = {.token = "s3cret-Token", .token_ms = 500};
+    int port;
+    pl_sink *s = open_tcp_opts(&o, &port);
+    if (!s) return;
+    int good = connect_tcp(port, 0), crlf = connect_tcp(port, 0), wrong = connect_tcp(port, 0),
+        silent = connect_tcp(port, 0), prefix = connect_tcp(port, 0);
+    CHECK(pl_sink_write(s, "{\"n\":0}\n", 8) == 0, "write 0"); /* accepts all five */
+    CHECK(send(good, "s3cret-Token\n", 13, 0) == 13, "send token");
+    CHECK(send(crlf, "s3cret-Token\r\nextra", 20, 0) == 20, "send token CRLF");
+    CHECK(send(wrong, "s3cret-Tokem\n", 13, 0) == 13, "send wrong token");
+    CHECK(send(prefix, "s3cret\n", 7, 0) == 7, "send a prefix of the token");
+    /* the server reads them at its next writes; poll until the two are admitted */
+    pl_sink_stats st;
+    for (int k = 0; k < 200; k++) {
+        struct timespec ts = {0, 5000000};
+        nanosleep(&ts, NULL);
+        CHECK(pl_sink_write(s, "{\"n\":1}\n", 8) == 0, "write 1");
+        pl_sink_get_stats(s, &st);
+        if (st.unauthorized >= 2 && st.clients == 3) break;
+    }
+    char got[256] = "";
+    /* admitted clients see lines written after their token, never the ones before */
+    CHECK(read_line(good, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "good: '%s'",
+          got);
+    CHECK(read_line(crlf, got, sizeof got, 3000) > 0 && !strcmp(got, "{\"n\":1}\n"), "crlf: '%s'",
+          got);
+    CHECK(read_line(wrong, got, sizeof got, 3000) > 0 &&
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"wrong token\"}\n"),
+          "wrong: '%s'", got);
+    CHECK(read_line(prefix, got, sizeof got, 3000) > 0 &&
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"wrong token\"}\n"),
+          "prefix: '%s'", got);
+    /* the silent one is turned away once its 500 ms are up, and got nothing before */
+    struct timespec ts = {0, 600000000};
+    nanosleep(&ts, NULL);
+    CHECK(pl_sink_write(s, "{\"n\":2}\n", 8) == 0, "write 2");
+    CHECK(read_line(silent, got, sizeof got, 3000) > 0 &&
+              !strcmp(got, "{\"error\":\"refused\",\"reason\":\"no token within 500 ms\"}\n"),
+          "silent: '%s'", got);
+    pl_sink_get_stats(s, &st);
+    CHECK(st.unauthorized == 3 && st.clients == 2, "unauthorized %llu, clients %d",
+          (unsigned long long)st.unauthorized, st.clients);
+    int connected = 0, slow = 0, gone = 0, refused = 0;
+    char msg[PL_SINK_EVENT_MAX];
+    while (pl_sink_next_event(s, msg, sizeof msg)) {
+        if (strstr(msg, "waiting for its token")) connected++;
+        if (strstr(msg, "refused: wrong token") || strstr(msg, "refused: no token")) refused++;
+        if (strstr(msg, "slow")) slow++;
+        if (strstr(msg, "disconnected")) gone++;
+    }
+    CHECK(connected == 5 && refused == 3 && slow == 0, "events: %d connected, %d refused, %d slow",
+          connected, refused, slow);
+    pl_sink_close(s);
+    close(good);
+    close(crlf);
+    close(wrong);
+    close(silent);
+    close(prefix);
 }
 
 /* ---- stdout -------------------------------------------------------------------------- */
@@ -585,6 +731,8 @@ static void test_unix(void)
     if (!s) return;
     struct stat st;
     CHECK(lstat(path, &st) == 0 && S_ISSOCK(st.st_mode), "no socket at %s", path);
+    CHECK((st.st_mode & 0777) == 0600, "default socket mode %o, expected 600 (owner only)",
+          (unsigned)(st.st_mode & 0777));
     int c = connect_unix(path);
     CHECK(c >= 0, "connect %s: %s", path, strerror(errno));
     char line[256], expect[4096], got[4096];
@@ -644,6 +792,19 @@ static void test_unix(void)
     CHECK(lstat(path, &st) == 0 && S_ISREG(st.st_mode) && st.st_size == 9, "regular file changed");
     unlink(path);
 
+    /* --unix-mode: the file is created with the bits asked for, whatever the umask */
+    mode_t old_mask = umask(0);
+    pl_sink_options o = {.unix_mode = 0660};
+    rc = pl_sink_open_opts(spec, &o, &s);
+    CHECK(rc == 0 && lstat(path, &st) == 0 && (st.st_mode & 0777) == 0660,
+          "unix_mode 0660 under umask 0: rc %d, mode %o", rc, (unsigned)(st.st_mode & 0777));
+    umask(old_mask);
+    mode_t cur = umask(0);
+    umask(cur);
+    CHECK(cur == old_mask, "the umask is restored after open (%o, was %o)", (unsigned)cur,
+          (unsigned)old_mask);
+    pl_sink_close(s);
+
     /* a directory that does not exist */
     rc = pl_sink_open("unix:/nonexistent-dir-parlight/x.sock", &s);
     CHECK(rc < 0 && strstr(pl_last_error(), "/nonexistent-dir-parlight/x.sock"),
@@ -666,7 +827,7 @@ static void test_sinks(void)
     snprintf(udp, sizeof udp, "udp://127.0.0.1:%d", ntohs(sa.sin_port));
     const char *specs[] = {udp, "tcp://:0"};
     pl_sinks *m = NULL;
-    CHECK(pl_sinks_open(specs, 2, &m) == 0, "open 2 sinks: %s", pl_last_error());
+    CHECK(pl_sinks_open(specs, 2, NULL, &m) == 0, "open 2 sinks: %s", pl_last_error());
     if (!m) return;
     CHECK(pl_sinks_count(m) == 2, "count");
     pl_sink *tcp = pl_sinks_get(m, 1);
@@ -691,17 +852,17 @@ static void test_sinks(void)
     close(rx);
 
     const char *dup2_specs[] = {"tcp://:0", "tcp://:0"};
-    CHECK(pl_sinks_open(dup2_specs, 2, &m) == PL_E_ARG && strstr(pl_last_error(), "twice"),
+    CHECK(pl_sinks_open(dup2_specs, 2, NULL, &m) == PL_E_ARG && strstr(pl_last_error(), "twice"),
           "duplicate spec: %s", pl_last_error());
     const char *bad_specs[] = {"tcp://:0", "udp://:bad"};
-    CHECK(pl_sinks_open(bad_specs, 2, &m) == PL_E_ARG && strstr(pl_last_error(), "udp://:bad") &&
-              !m,
+    CHECK(pl_sinks_open(bad_specs, 2, NULL, &m) == PL_E_ARG &&
+              strstr(pl_last_error(), "udp://:bad") && !m,
           "second spec bad: %s", pl_last_error());
-    CHECK(pl_sinks_open(NULL, 0, &m) == 0 && pl_sinks_count(m) == 1 &&
+    CHECK(pl_sinks_open(NULL, 0, NULL, &m) == 0 && pl_sinks_count(m) == 1 &&
               !strcmp(pl_sink_spec(pl_sinks_get(m, 0)), "stdout"),
           "no spec: stdout");
     pl_sinks_close(m);
-    CHECK(pl_sinks_open(specs, PL_SINKS_MAX + 1, &m) == PL_E_ARG, "too many sinks");
+    CHECK(pl_sinks_open(specs, PL_SINKS_MAX + 1, NULL, &m) == PL_E_ARG, "too many sinks");
 }
 
 /* IPv6 loopback, where the machine has it. */
@@ -732,6 +893,8 @@ int main(void)
     RUN(test_tcp_disconnect);
     RUN(test_close_bounded);
     RUN(test_client_limit);
+    RUN(test_max_clients);
+    RUN(test_token);
     RUN(test_stdout_epipe);
     RUN(test_unix);
     RUN(test_sinks);
