@@ -4,8 +4,11 @@
 #   make demo         install what is missing, build, run the shipped model on the sample frames
 #   make test         install what is missing, build, run the whole suite (tests/run.sh)
 #   make bench        parlight vs PyTorch and ONNX Runtime, same weights (tools/bench/run.sh)
-#   make clean        remove build/
+#   make clean        remove build/ and build-san/
 #   make BOARD=name   build for boards/name.mk (default: host)
+#   make test SAN=1   the same suite built with ASan + UBSan into build-san/ (docs/TESTING.md)
+#   make fuzz         libFuzzer targets (tests/fuzz/, clang) into build/fuzz/, each run
+#                     FUZZ_SECONDS (default 60) from its corpus (docs/TESTING.md)
 #
 # Everything is built out of tree under $(BUILD). Sources are found by directory, so a new file
 # in core/, model/, kernels/, quant/, light/ or port/ joins the library without editing this
@@ -13,15 +16,39 @@
 
 .DEFAULT_GOAL := all
 BOARD ?= host
+
+# ---- sanitizer and fuzz builds (docs/TESTING.md) ----------------------------------------------
+# SAN=1: every object, the library, the CLI, the plugins and the tests are built with ASan and
+#   UBSan (any undefined behaviour aborts) into build-san/, never mixed with build/.
+# FUZZ=1 (what `make fuzz` sets): clang with -fsanitize=fuzzer-no-link,address,undefined into
+#   build/fuzz/, host only, without OpenCV and libcamera (their plugins are not what is fuzzed).
+SAN  ?= 0
+FUZZ ?= 0
+SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+ifeq ($(FUZZ),1)
+ifneq ($(BOARD),host)
+$(error make fuzz builds for the host only)
+endif
+CC  := clang
+CXX := clang++
+WITH_OPENCV    := 0
+WITH_LIBCAMERA := 0
+SAN_FLAGS := -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer \
+             -fno-sanitize-recover=undefined
+BUILD := build/fuzz
+else ifneq ($(SAN),1)
+SAN_FLAGS :=
+endif
 ifeq ($(wildcard boards/$(BOARD).mk),)
 $(error unknown BOARD '$(BOARD)': no boards/$(BOARD).mk (have: $(basename $(notdir $(wildcard boards/*.mk)))))
 endif
 include boards/$(BOARD).mk
 
+BUILD_ROOT := $(if $(filter 1,$(SAN)),build-san,build)
 ifeq ($(BOARD),host)
-BUILD ?= build
+BUILD ?= $(BUILD_ROOT)
 else
-BUILD ?= build/$(BOARD)
+BUILD ?= $(BUILD_ROOT)/$(BOARD)
 endif
 
 # ---- optional libraries: the target's pkg-config decides (docs/PORTING.md) ---------------------
@@ -99,9 +126,10 @@ WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wm
             -Wformat=2 -Wundef
 OPT      ?= -O2 -g
 CPPFLAGS += -Iinclude -I. -D_GNU_SOURCE $(FEATURE_FLAGS)
-CFLAGS   += -std=c11 $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread
+CFLAGS   += -std=c11 $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread $(SAN_FLAGS)
 CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
-            $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS)
+            $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS) $(SAN_FLAGS)
+LDFLAGS  += $(SAN_FLAGS)
 LDLIBS   += $(CORE_LIBS) -lstdc++ -lm -pthread
 
 LIB_C   := $(sort $(wildcard core/*.c model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
@@ -135,10 +163,16 @@ LIB_CXX := $(filter-out $(PLUGIN_OPENCV_SRC) $(PLUGIN_LIBCAMERA_SRC),\
                         $(sort $(wildcard port/*.cpp light/*.cpp)))
 APP_C   := $(sort $(wildcard app/*.c))
 TEST_C  := $(sort $(wildcard tests/*.c))
+FUZZ_C  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 
 LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 APP_OBJ  := $(APP_C:%.c=$(BUILD)/obj/%.o)
 TEST_BIN := $(TEST_C:tests/%.c=$(BUILD)/tests/%)
+# Each fuzz target twice: under libFuzzer in build/fuzz/ (make fuzz), and in every other build
+# with tests/fuzz/replay.c as its main, which runs it once on every input of its corpus
+# (tests/test_fuzz_corpus.sh: the regression inputs are replayed by `make test`, no clang needed).
+FUZZ_BIN   := $(FUZZ_C:tests/fuzz/%.c=$(BUILD)/%)
+REPLAY_BIN := $(FUZZ_C:tests/fuzz/%.c=$(BUILD)/tests/fuzz/%)
 LIB      := $(BUILD)/libparlight.a
 CLI      := $(BUILD)/parlight
 
@@ -153,7 +187,7 @@ build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 	@mkdir -p $(dir $@)
 	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force
 
-.PHONY: all deps demo test tests clean format-check test-camera bench FORCE
+.PHONY: all deps demo test tests clean format-check test-camera bench fuzz fuzz-build FORCE
 all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO)
 
 # The optional libraries this build has, one word each (tests/run.sh skips the tests that need
@@ -162,7 +196,7 @@ $(BUILD)/features: FORCE
 	@mkdir -p $(dir $@)
 	@echo '$(FEATURES)' | cmp -s - $@ || echo '$(FEATURES)' > $@
 
-tests: $(TEST_BIN)
+tests: $(TEST_BIN) $(REPLAY_BIN)
 
 deps:
 	@BOARD=$(BOARD) tools/install-deps.sh
@@ -209,6 +243,14 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
 
+$(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/replay.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+# linked by the C++ driver: UBSan's C++ checks in port/exr_io.cpp need its C++ runtime
+$(BUILD)/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(LIB)
+	$(CXX) $(CXXFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $< $(LIB) $(LDLIBS)
+
 # The camera rig's userspace UVC webcam (tools/camrig/uvc-gadget.c; built by tools/camrig/build.sh)
 $(BUILD)/tools/uvc-gadget: $(BUILD)/obj/tools/camrig/uvc-gadget.o $(LIB)
 	@mkdir -p $(dir $@)
@@ -225,11 +267,28 @@ demo:
 # On a cross board the programs run under the board's BOARD_RUNNER (qemu-aarch64 with its CPU
 # model); BOARD_TESTS (a grep pattern on test names) narrows what runs when set, and
 # BOARD_TEST_ENV (VAR=value ...) sizes the heavy tests for the emulator.
+# SAN=1 runs the suite on build-san/ with the sanitizers' options below; tests/run.sh skips the
+# tests that only run Python or boot VMs there (PL_SAN, and the reason it prints).
+SAN_ENV := $(if $(filter 1,$(SAN)),PL_SAN=1 \
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp)
 test:
 	@BOARD=$(BOARD) tools/install-deps.sh
 	@$(MAKE) --no-print-directory all $(SEEDED)
-	@$(BOARD_TEST_ENV) BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' \
-	    tests/run.sh
+	@$(BOARD_TEST_ENV) $(SAN_ENV) BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' \
+	    TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' tests/run.sh
+
+# libFuzzer: builds build/fuzz/fuzz_<target> for every tests/fuzz/fuzz_<target>.c and runs each
+# FUZZ_SECONDS from tests/fuzz/corpus/<target>/ (new inputs go to build/fuzz/corpus/<target>/,
+# crashes to build/fuzz/artifacts/<target>/; tests/fuzz/run.sh). FUZZ_TARGETS narrows the list.
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS ?= $(FUZZ_C:tests/fuzz/fuzz_%.c=%)
+fuzz:
+	@BOARD=host tools/install-deps.sh
+	@$(MAKE) --no-print-directory FUZZ=1 fuzz-build
+	@FUZZ_SECONDS=$(FUZZ_SECONDS) tests/fuzz/run.sh $(FUZZ_TARGETS)
+
+fuzz-build: $(FUZZ_BIN)
 
 # The camera tests alone: pixel conversions, the QEMU + vivid rig and the QEMU + UVC webcam rig
 # (tools/camrig, ~1.5 + 1 min).
@@ -249,7 +308,8 @@ format-check:
 	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror
 
 clean:
-	rm -rf build
+	rm -rf build build-san
 
 -include $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.d) $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.d)
--include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d)
+-include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d) \
+         $(FUZZ_C:%.c=$(BUILD)/obj/%.d) $(BUILD)/obj/tests/fuzz/replay.d

@@ -6,6 +6,7 @@
 #ifdef PL_HAVE_OPENEXR
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wunused-parameter" /* clang, in ImfAttribute.h */
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>

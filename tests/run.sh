@@ -9,6 +9,8 @@
 #   /usr/aarch64-linux-gnu"). C tests run under it; shell tests get a BUILD folder of wrappers
 #   that run $BUILD/parlight and $BUILD/tests/* under it. Tests named by PL_RUNNER_SKIP (a grep
 #   pattern; default: the camera rig, which boots native binaries in a VM) skip under a runner.
+# PL_SAN=1 (make test SAN=1, build-san/): the build has ASan and UBSan; the tests san_skip names
+#   skip with their reason (Python-only work, VMs, timings), everything else runs.
 # Needs: a test that needs an optional library of the build says so in its first 20 lines with
 #   a line "needs: opencv" (or openexr, libjpeg, libpng, libcamera; several allowed); run.sh
 #   skips it when $BUILD/features (written by the Makefile) lacks one.
@@ -53,6 +55,21 @@ missing_needs() {
     echo -n "$out"
 }
 
+# Why a test does not run under the sanitizers (empty: it runs). Only tests whose C part is tiny
+# or covered elsewhere, or which cannot run sanitized builds, are here.
+san_skip() {
+    case $1 in
+        test_camera_uvc.sh | test_camera_vivid.sh)
+            echo "boots a QEMU guest that runs the build's programs; the guest has no sanitizer runtime" ;;
+        test_train_smoke.sh | test_training_path.sh | test_distill.sh)
+            echo "PyTorch training end to end; the C commands it calls (crop, estimate, eval) run in the CLI tests" ;;
+        test_export.sh | test_synth_rooms.sh)
+            echo "Python only (tools/export.py, tools/train/synth_rooms.py): nothing sanitized to run" ;;
+        test_bench_cli.sh)
+            echo "times parlight against PyTorch and ONNX Runtime: sanitized timings mean nothing" ;;
+    esac
+}
+
 tests=()
 for t in "$BUILD"/tests/test_*; do [ -x "$t" ] && tests+=("$t"); done
 for t in tests/test_*.sh; do [ -f "$t" ] && tests+=("$t"); done
@@ -71,6 +88,9 @@ for t in "${tests[@]}"; do
         rc=77
     elif [ -n "$RUNNER" ] && grep -qE "$RUNNER_SKIP" <<<"$name"; then
         echo "skip: not run under $RUNNER (PL_RUNNER_SKIP)" >"$log"
+        rc=77
+    elif [ "${PL_SAN:-0}" = 1 ] && [ -n "$(san_skip "$name")" ]; then
+        echo "skip under SAN=1: $(san_skip "$name")" >"$log"
         rc=77
     else
         case "$t" in

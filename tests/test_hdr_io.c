@@ -215,6 +215,20 @@ static void test_bad_files(const char *real_exr, const char *real_hdr)
     CHECK(pl_hdr_read(tmp("one.exr"), &b) == 0 && b.width == 1, "1x1 exr: %s", pl_last_error());
     free(b.data);
     expect_error(tmp("one.exr"), PL_E_FORMAT, 1, "1x1 EXR as panorama");
+    /* an attribute that declares 1.5 GB in a small file: refused before OpenEXR allocates it */
+    size_t one_len;
+    unsigned char *one = slurp(tmp("one.exr"), &one_len), *size_at = NULL;
+    for (size_t i = 0; one && i + 16 + 4 <= one_len && !size_at; i++)
+        if (!memcmp(one + i, "channels\0chlist\0", 16)) size_at = one + i + 16;
+    CHECK(size_at != NULL, "no channels attribute in %s", tmp("one.exr"));
+    if (size_at) {
+        memcpy(size_at, "\x00\x00\x00\x60", 4);
+        spit(tmp("attr-size.exr"), one, one_len);
+        expect_error(tmp("attr-size.exr"), PL_E_FORMAT, 0, "EXR attribute of 1.5 GB");
+        CHECK(strstr(pl_last_error(), "'channels'") && strstr(pl_last_error(), "1610612736"),
+              "attribute size message: %s", pl_last_error());
+    }
+    free(one);
     expect_error(tmp("one.hdr"), PL_E_FORMAT, 1, "1x1 HDR as panorama");
     free(a.data);
     make_image(&a, 64, 64);

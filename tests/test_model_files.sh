@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
-# The loader against broken copies of a real model file (tests/plm_fuzz.c), and `parlight info`
-# on the intact one. Needs the seeded model that `make test` exports (build/models/seeded-n3.plm).
+# The loader against broken copies of real model files (tests/plm_corrupt.c): the seeded fp32
+# model that `make test` exports (build/models/seeded-n3.plm) and the shipped int8 one, whose
+# first tensors are int8; and `parlight info` on the intact seeded model.
 set -eu
 model=build/models/seeded-n3.plm
 [ -f "$model" ] || { echo "no $model: run 'make test' (it exports it)"; exit 1; }
-"$BUILD"/tests/plm_fuzz "$model" 64
+"$BUILD"/tests/plm_corrupt "$model"
+"$BUILD"/tests/plm_corrupt models/parlight-n3-int8.plm
 out=$("$BUILD"/parlight info --model "$model")
 echo "$out"
 grep -q "lights (N)   3" <<<"$out"

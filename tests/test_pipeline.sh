@@ -12,7 +12,7 @@ mkdir -p "$T"
 fail() { echo "FAIL: $*"; exit 1; }
 frame=$(ls tests/data/frames/*.jpg | head -n 1)
 "$BUILD"/tests/make_video "$T/v12.avi" 6 12 "$frame" || fail "make_video"
-"$BUILD"/tests/make_video "$T/v90.avi" 30 90 "$frame" || fail "make_video"
+"$BUILD"/tests/make_video "$T/v300.avi" 30 300 "$frame" || fail "make_video"
 
 # --- realtime: 12 frames over 2 s, the network takes ~0.5 s a frame: most are dropped ---
 # (the reference kernels, PARLIGHT_ISA=ref, keep the network slower than the replay on any CPU)
@@ -47,9 +47,20 @@ ms=$(( ($(date +%s%N) - start) / 1000000 ))
 echo "ok  --fps-cap 1.5: 3 frames in $ms ms"
 
 # --- SIGINT mid-stream: complete lines, exit 0 ---
-"$P" estimate --model "$M" --input "$T/v90.avi" --realtime >"$T/int.jsonl" 2>"$T/int.err" &
+# The signal goes once the first line is out (the handlers are installed by then), into a 10 s
+# video that is still playing: a fixed sleep raced with start-up on a slow or sanitized build
+# (make test SAN=1), where the default action killed the process (exit 143) before it ran.
+first_line() { # FILE PID: wait (at most 120 s) until FILE has a complete line or PID has died
+    for _ in $(seq 1200); do
+        grep -q . "$1" 2>/dev/null && return 0
+        kill -0 "$2" 2>/dev/null || return 1
+        sleep 0.1
+    done
+    return 1
+}
+"$P" estimate --model "$M" --input "$T/v300.avi" --realtime >"$T/int.jsonl" 2>"$T/int.err" &
 pid=$!
-sleep 2
+first_line "$T/int.jsonl" $pid || fail "SIGINT: no line before the signal ($(cat "$T/int.err"))"
 kill -INT $pid
 wait $pid
 rc=$?
@@ -60,9 +71,9 @@ import json, sys
 n = sum(1 for l in open(sys.argv[1]) if json.loads(l))
 assert n >= 1, 'no line before the signal'
 print(f'SIGINT after {n} complete lines')" "$T/int.jsonl" || fail "SIGINT output"
-"$P" estimate --model "$M" --input "$T/v90.avi" --realtime >/dev/null 2>"$T/term.err" &
+"$P" estimate --model "$M" --input "$T/v300.avi" --realtime >"$T/term.jsonl" 2>"$T/term.err" &
 pid=$!
-sleep 1
+first_line "$T/term.jsonl" $pid || fail "SIGTERM: no line before the signal ($(cat "$T/term.err"))"
 kill -TERM $pid
 wait $pid || fail "SIGTERM: exit $? ($(cat "$T/term.err"))"
 echo "ok  SIGINT and SIGTERM exit 0 with complete lines"

@@ -27,6 +27,7 @@ PKGS=(
     nodejs python3-onnx    # make bench: ONNX Runtime peer (npm onnxruntime-node under node) and its ONNX models (tools/bench)
     time                   # make bench: /usr/bin/time -v for the peak RSS of parlight estimate
     qemu-system-x86 kmod cpio xz-utils   # camera rig VM (tools/camrig; kernel + busybox are apt-get downloaded, not installed)
+    clang libclang-rt-dev  # make fuzz: clang with libFuzzer and the sanitizer runtimes (docs/TESTING.md)
 )
 
 CROSS_ARCH=""
