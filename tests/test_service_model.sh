@@ -51,7 +51,8 @@ for line in open(sys.argv[3]):
 print(" ".join(f"{l}*{n}" for l, n in out))
 PY
 }
-lines() { wc -l <"$1"; }
+# (0 for a file the background estimate has not created yet: its redirection may come later)
+lines() { if [ -f "$1" ]; then wc -l <"$1"; else echo 0; fi; }
 # wait_lines FILE N: until FILE has N complete lines (at most 180 s; the process must live).
 wait_lines() {
     local deadline=$((SECONDS + 180))
