@@ -199,6 +199,19 @@ static void tiff_size(const uint8_t *p, size_t n, header *h)
     if (h->width < 0 || h->height < 0) h->width = h->height = -1;
 }
 
+/* Decimal digits at p[i..n) after optional blanks, at most 11 of them (no strtoll: the buffer is
+ * the file's bytes, not a string, and may end inside the number); -1 when there are none. */
+static long long pnm_number(const uint8_t *p, size_t n, size_t i)
+{
+    while (i < n && (p[i] == ' ' || p[i] == '\t'))
+        i++;
+    long long x = 0;
+    size_t d = 0;
+    for (; i < n && isdigit(p[i]) && d < 12; i++, d++)
+        x = x * 10 + (p[i] - '0');
+    return d == 0 || d == 12 ? -1 : x;
+}
+
 /* PNM/PAM: "P<n>" then width and height as decimal text (PAM: WIDTH and HEIGHT lines). */
 static void pnm_size(const uint8_t *p, size_t n, header *h)
 {
@@ -207,8 +220,8 @@ static void pnm_size(const uint8_t *p, size_t n, header *h)
     if (p[1] == '7') { /* PAM */
         for (; i + 7 < n && i < 4096; i++) {
             if (p[i - 1] != '\n') continue;
-            if (memcmp(p + i, "WIDTH ", 6) == 0) v[0] = strtoll((const char *)p + i + 6, NULL, 10);
-            if (memcmp(p + i, "HEIGHT ", 7) == 0) v[1] = strtoll((const char *)p + i + 7, NULL, 10);
+            if (memcmp(p + i, "WIDTH ", 6) == 0) v[0] = pnm_number(p, n, i + 6);
+            if (memcmp(p + i, "HEIGHT ", 7) == 0) v[1] = pnm_number(p, n, i + 7);
             if (memcmp(p + i, "ENDHDR", 6) == 0) break;
         }
     } else {
