@@ -19,10 +19,12 @@ static int get_number(const char *name, const pl_json_value *v, const char *what
     double x = v->number;
     if (!isfinite(x) || fabs(x) > 3.0e38)
         return pl_error(PL_E_FORMAT, "%s: %s: expected a finite float, found %g", name, what, x);
-    if (strict ? !(x > lo) : !(x >= lo))
+    /* checked as the float it is kept as: 1e-50 > 0 as a double is 0 as a float */
+    const float f = (float)x;
+    if (strict ? !(x > lo && f > (float)lo) : !(x >= lo))
         return pl_error(PL_E_FORMAT, "%s: %s: expected a number %s %g, found %g", name, what,
                         strict ? ">" : ">=", lo, x);
-    *out = (float)x;
+    *out = f;
     return 0;
 }
 
