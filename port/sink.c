@@ -218,7 +218,7 @@ static int stdout_write(pl_sink *s, const char *line, size_t len)
 
 /* ---- udp --------------------------------------------------------------------------------- */
 
-static int resolve(const char *spec, const sink_spec *sp, int socktype, struct addrinfo **res)
+int sink_resolve(const char *spec, const sink_spec *sp, int socktype, struct addrinfo **res)
 {
     struct addrinfo hints;
     memset(&hints, 0, sizeof hints);
@@ -237,7 +237,7 @@ static int resolve(const char *spec, const sink_spec *sp, int socktype, struct a
 static int udp_open(pl_sink *s, const sink_spec *sp)
 {
     struct addrinfo *res = NULL;
-    int rc = resolve(s->spec, sp, SOCK_DGRAM, &res);
+    int rc = sink_resolve(s->spec, sp, SOCK_DGRAM, &res);
     if (rc < 0) return rc;
     int err = 0;
     for (struct addrinfo *ai = res; ai; ai = ai->ai_next) {

@@ -5,8 +5,10 @@
 #ifndef PL_PORT_SINK_INTERNAL_H
 #define PL_PORT_SINK_INTERNAL_H
 
+#include <netdb.h>
 #include <poll.h>
 #include <stdint.h>
+#include <sys/socket.h>
 #include <sys/types.h>
 #include <sys/un.h>
 
@@ -83,6 +85,13 @@ size_t sink_refusal_json(char *out, size_t cap, const char *reason);
 
 /* sink_access_init, then allocates the client slots (PL_E_ARG / PL_E_NOMEM). */
 int sink_server_init(pl_sink *s, const pl_sink_options *opts);
+/* getaddrinfo of the spec's HOST:PORT for `socktype`; PL_E_DEVICE naming the spec (port/sink.c).
+ * *res is the caller's (freeaddrinfo). */
+int sink_resolve(const char *spec, const sink_spec *sp, int socktype, struct addrinfo **res);
+/* The next pending connection on the listening socket (non-blocking, close-on-exec, its
+ * address in *ss), or -1 when there is none now or accept failed (reported once per errno as an
+ * event). Shared by the tcp/unix servers and the ws sink (port/sink_server.c). */
+int sink_accept(pl_sink *s, struct sockaddr_storage *ss);
 int sink_server_open_tcp(pl_sink *s, const sink_spec *sp);
 int sink_server_open_unix(pl_sink *s, const sink_spec *sp);
 int sink_server_write(pl_sink *s, const char *line, size_t len);

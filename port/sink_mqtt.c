@@ -226,17 +226,9 @@ int sink_mqtt_open(pl_sink *s, const sink_spec *sp, const pl_sink_options *opts)
 
     /* resolved once here, like udp://, so that a wrong name fails at start and a reconnection
      * never waits for DNS; with TLS, libmosquitto needs the name to check the certificate */
-    struct addrinfo hints, *res = NULL;
-    memset(&hints, 0, sizeof hints);
-    hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
-    hints.ai_flags = AI_NUMERICSERV | (sp->host_numeric ? AI_NUMERICHOST : 0);
-    char port[8];
-    snprintf(port, sizeof port, "%d", sp->port);
-    int rc = getaddrinfo(sp->host, port, &hints, &res);
-    if (rc != 0)
-        return pl_error(PL_E_DEVICE, "sink '%s': cannot resolve '%s': %s", s->spec, sp->host,
-                        rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
+    struct addrinfo *res = NULL;
+    int rc = sink_resolve(s->spec, sp, SOCK_STREAM, &res);
+    if (rc < 0) return rc;
     sink_format_addr(res->ai_addr, s->address, sizeof s->address);
     if (tls) {
         snprintf(m->host, sizeof m->host, "%s", sp->host);

@@ -145,25 +145,33 @@ static int client_flush(pl_sink *s, sink_client *c)
     return 0;
 }
 
+int sink_accept(pl_sink *s, struct sockaddr_storage *ss)
+{
+    for (;;) {
+        socklen_t sl = sizeof *ss;
+        int fd = accept4(s->fd, (struct sockaddr *)ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd >= 0) {
+            s->last_accept_errno = 0;
+            return fd;
+        }
+        int err = errno;
+        if (err == EINTR || err == ECONNABORTED || err == EPROTO) continue;
+        if (err == EAGAIN || err == EWOULDBLOCK) {
+            s->last_accept_errno = 0;
+            return -1;
+        }
+        if (err != s->last_accept_errno) sink_event(s, "cannot accept a client: %s", strerror(err));
+        s->last_accept_errno = err;
+        return -1;
+    }
+}
+
 static void accept_pending(pl_sink *s)
 {
     for (int k = 0; k < ACCEPTS_PER_WRITE; k++) {
         struct sockaddr_storage ss;
-        socklen_t sl = sizeof ss;
-        int fd = accept4(s->fd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
-        if (fd < 0) {
-            int err = errno;
-            if (err == EINTR || err == ECONNABORTED || err == EPROTO) continue;
-            if (err == EAGAIN || err == EWOULDBLOCK) {
-                s->last_accept_errno = 0;
-                return;
-            }
-            if (err != s->last_accept_errno)
-                sink_event(s, "cannot accept a client: %s", strerror(err));
-            s->last_accept_errno = err;
-            return;
-        }
-        s->last_accept_errno = 0;
+        int fd = sink_accept(s, &ss);
+        if (fd < 0) return;
         sink_client *c = NULL;
         for (int i = 0; i < s->max_clients && !c; i++)
             if (s->clients[i].fd < 0) c = &s->clients[i];
@@ -340,17 +348,9 @@ int sink_server_service(pl_sink *s)
 
 int sink_server_open_tcp(pl_sink *s, const sink_spec *sp)
 {
-    struct addrinfo hints, *res = NULL;
-    memset(&hints, 0, sizeof hints);
-    hints.ai_family = AF_UNSPEC;
-    hints.ai_socktype = SOCK_STREAM;
-    hints.ai_flags = AI_NUMERICSERV | (sp->host_numeric ? AI_NUMERICHOST : 0);
-    char port[8];
-    snprintf(port, sizeof port, "%d", sp->port);
-    int rc = getaddrinfo(sp->host, port, &hints, &res);
-    if (rc != 0)
-        return pl_error(PL_E_DEVICE, "sink '%s': cannot resolve '%s': %s", s->spec, sp->host,
-                        rc == EAI_SYSTEM ? strerror(errno) : gai_strerror(rc));
+    struct addrinfo *res = NULL;
+    int rc = sink_resolve(s->spec, sp, SOCK_STREAM, &res);
+    if (rc < 0) return rc;
     int err = 0;
     char where[96] = "";
     for (struct addrinfo *ai = res; ai; ai = ai->ai_next) {

@@ -246,21 +246,8 @@ static void ws_accept(pl_sink *s, sink_ws *w)
 {
     for (int k = 0; k < ACCEPTS_PER_CALL; k++) {
         struct sockaddr_storage ss;
-        socklen_t sl = sizeof ss;
-        int fd = accept4(s->fd, (struct sockaddr *)&ss, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
-        if (fd < 0) {
-            int err = errno;
-            if (err == EINTR || err == ECONNABORTED || err == EPROTO) continue;
-            if (err == EAGAIN || err == EWOULDBLOCK) {
-                s->last_accept_errno = 0;
-                return;
-            }
-            if (err != s->last_accept_errno)
-                sink_event(s, "cannot accept a client: %s", strerror(err));
-            s->last_accept_errno = err;
-            return;
-        }
-        s->last_accept_errno = 0;
+        int fd = sink_accept(s, &ss);
+        if (fd < 0) return;
         char peer[64];
         sink_format_addr(&ss, peer, sizeof peer);
         ws_client *c = NULL;
