@@ -27,7 +27,8 @@ static void help(FILE *f)
     fprintf(f,
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
-            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n"
+            "                         [--realtime [--frame-interval MS]] [--fps-cap F]\n"
+            "                         [--anchor off|W,B[,GAMMA]] [--www DIR]\n"
             "                         [--loop] [--wait-clients N] [--max-clients N]\n"
             "                         [--unix-mode MODE] [--token-file F] [--max-pixels N]\n"
             "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n"
@@ -71,7 +72,11 @@ static void help(FILE *f)
             "                  and name HOST; --mqtt-cert F --mqtt-key F: a client certificate\n"
             "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
             "                  frames that arrive while the network is busy are dropped and\n"
-            "                  counted in \"dropped\" (cameras always run this way)\n"
+            "                  counted in \"dropped\" (cameras always run this way); a\n"
+            "                  directory or still image at one frame per --frame-interval\n"
+            "  --frame-interval MS  with --realtime: milliseconds between the frames of a\n"
+            "                  directory or still image, like a camera (default 33.3: 30 fps;\n"
+            "                  up to 3600000); not for videos, which have their own rate\n"
             "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
             "  --orientation W,X,Y,Z  camera-to-world rotation (unit quaternion) of a fixed camera:\n"
             "                  lights, primary, sh9, engine and --at in world space\n"
@@ -83,6 +88,8 @@ static void help(FILE *f)
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
             "                  tcp/unix/ws servers (a replay is not over before a viewer connects)\n"
+            "  --www DIR       ws:// servers also serve the files under DIR over HTTP on the\n"
+            "                  same port (the live viewer: parlight view, docs/VIEWER.md)\n"
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
@@ -150,13 +157,15 @@ static void reload_model(const char *path, int threads, const double *anchor, fl
     fprintf(stderr, "parlight estimate: SIGHUP: model reloaded from %s\n", path);
 }
 
-/* Sleeps until the monotonic time `until_ns`, waking early on a stop request. */
-static void wait_until(int64_t until_ns)
+/* Sleeps until the monotonic time `until_ns`, waking early on a stop request, and services the
+ * servers every 20 ms meanwhile (a viewer page loading from --www, readers connecting). */
+static void wait_until(int64_t until_ns, pl_sinks *sinks)
 {
     while (!stop_requested) {
+        pl_sinks_service(sinks);
         int64_t left = until_ns - pl_now_ns();
         if (left <= 0) return;
-        struct timespec ts = {0, (long)(left < 50000000 ? left : 50000000)};
+        struct timespec ts = {0, (long)(left < 20000000 ? left : 20000000)};
         nanosleep(&ts, NULL);
     }
 }
@@ -199,6 +208,15 @@ static int wait_for_readers(pl_sinks *sinks, int n, pl_ratelimit *event_limit)
     }
 }
 
+/* --realtime without --frame-interval on a directory or still image: 30 fps, a camera's rate. */
+#define PL_DEFAULT_FRAME_INTERVAL_NS 33333333LL
+
+static int start_capture(pl_source *src, int realtime, int64_t interval_ns, pl_capture **cap)
+{
+    return interval_ns ? pl_capture_start_paced(src, interval_ns, cap)
+                       : pl_capture_start(src, realtime, cap);
+}
+
 static int finite_lighting(const pl_lighting *L)
 {
     for (int i = 0; i < L->n_lights; i++) {
@@ -233,6 +251,8 @@ int cmd_estimate(int argc, char **argv)
                                          {"gravity", required_argument, 0, 'G'},
                                          {"poses", required_argument, 0, 'P'},
                                          {"wait-clients", required_argument, 0, 'W'},
+                                         {"frame-interval", required_argument, 0, 1008},
+                                         {"www", required_argument, 0, 1009},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"mqtt-qos", required_argument, 0, 1001},
                                          {"mqtt-id", required_argument, 0, 1002},
@@ -248,6 +268,7 @@ int cmd_estimate(int argc, char **argv)
     float at[3] = {0, 0, 0}, alpha = -1.0f;
     double fps_cap = 0.0;
     int realtime = 0, have_anchor = 0, loop = 0, wait_clients = 0;
+    int64_t interval_ns = 0; /* --frame-interval; 0: not given */
     int have_orient = 0, n_pose_flags = 0;
     double fixed_q[4], fixed_R[9];
     const char *poses_path = NULL;
@@ -370,6 +391,21 @@ int cmd_estimate(int argc, char **argv)
         case 1007:
             sink_opts.mqtt_key_file = optarg;
             break;
+        case 1008: {
+            double ms;
+            if (cli_double("estimate", "--frame-interval", optarg, 0, 3600000, 1, &ms) < 0)
+                return 2;
+            interval_ns = (int64_t)(ms * 1e6 + 0.5);
+            if (interval_ns <= 0) {
+                fprintf(stderr, "parlight estimate: --frame-interval '%s': expected milliseconds "
+                                "in (0, 3600000]\n", optarg);
+                return 2;
+            }
+            break;
+        }
+        case 1009:
+            sink_opts.www_dir = optarg;
+            break;
         case 'h': help(stdout); return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
@@ -399,6 +435,11 @@ int cmd_estimate(int argc, char **argv)
     }
     if (loop && camera) {
         fprintf(stderr, "parlight estimate: --loop replays files; a camera does not end\n");
+        return 2;
+    }
+    if (interval_ns && (!realtime || camera)) {
+        fprintf(stderr, "parlight estimate: --frame-interval paces a --realtime replay of "
+                        "--input (a directory or a still image)\n");
         return 2;
     }
     int n_servers = 0;
@@ -460,6 +501,17 @@ int cmd_estimate(int argc, char **argv)
             !strncmp(pl_sink_spec(k), "ws:", 3))
             fprintf(stderr, "parlight estimate: %s: listening on %s%s\n", pl_sink_spec(k),
                     pl_sink_address(k), sink_opts.token ? " (readers send the token first)" : "");
+        if (sink_opts.www_dir && !strncmp(pl_sink_spec(k), "ws:", 3)) {
+            /* the page connects to ws://its own host/stream unless told another path */
+            const char *path = strchr(pl_sink_spec(k) + 5, '/');
+            if (path && !strcmp(path, "/stream"))
+                fprintf(stderr, "parlight estimate: viewer: open http://%s/ in a browser\n",
+                        pl_sink_address(k));
+            else
+                fprintf(stderr, "parlight estimate: viewer: open http://%s/?ws=ws://%s%s in a "
+                                "browser\n", pl_sink_address(k), pl_sink_address(k),
+                        path ? path : "/");
+        }
     }
     if (stop_requested) goto stopped;
     reload_requested = 0; /* a SIGHUP before the first load asks for what it is about to read */
@@ -474,19 +526,31 @@ int cmd_estimate(int argc, char **argv)
         goto out;
     }
     if (stop_requested) goto stopped;
+    /* --realtime: a video at its own rate; a directory or still image (whose t_ns are file
+     * times) at one frame per --frame-interval, 30 fps by default */
+    if (realtime && !camera && !strncmp(pl_source_describe(src), "video:", 6)) {
+        if (interval_ns) {
+            fprintf(stderr, "parlight estimate: --frame-interval: %s is a video, replayed at its "
+                            "own frame rate\n", input);
+            rc = 2;
+            goto out;
+        }
+    } else if (realtime && !camera && !interval_ns) {
+        interval_ns = PL_DEFAULT_FRAME_INTERVAL_NS;
+    }
     if (wait_clients && wait_for_readers(sinks, wait_clients, &event_limit) < 0) goto stopped;
     /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
      * newest frame wins and the ones replaced unseen are counted in "dropped" */
-    if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
+    if ((camera || realtime) && start_capture(src, realtime, interval_ns, &cap) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
 
-    int64_t prev_t_ns = 0, last_start = 0;
+    int64_t prev_t_ns = 0, last_start = 0, last_frame_ns = 0;
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
-        if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap));
+        if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap), sinks);
         if (stop_requested) break;
         if (reload_requested) {
             reload_requested = 0;
@@ -497,8 +561,13 @@ int cmd_estimate(int argc, char **argv)
         int64_t dropped = 0;
         int st;
         if (cap) {
-            st = pl_capture_take(cap, &fr, &dropped, 100);
-            if (st == PL_CAPTURE_AGAIN) continue;
+            st = pl_capture_take(cap, &fr, &dropped, 20);
+            if (st == PL_CAPTURE_AGAIN) { /* meanwhile the servers accept and serve files */
+                pl_sinks_service(sinks);
+                while (pl_sinks_next_event(sinks, event, sizeof event))
+                    log_limited(&event_limit, "", event);
+                continue;
+            }
         } else {
             st = pl_source_read(src, &fr);
         }
@@ -523,8 +592,9 @@ int cmd_estimate(int argc, char **argv)
             cap = NULL;
             pl_source_close(src);
             src = NULL;
+            if (interval_ns) wait_until(last_frame_ns + interval_ns, sinks); /* pace the seam */
             if (pl_source_open_path(input, &src) < 0 ||
-                (realtime && pl_capture_start(src, realtime, &cap) < 0)) {
+                (realtime && start_capture(src, realtime, interval_ns, &cap) < 0)) {
                 fprintf(stderr, "parlight estimate: --loop: %s\n", pl_last_error());
                 goto out;
             }
@@ -594,6 +664,7 @@ int cmd_estimate(int argc, char **argv)
         }
         while (pl_sinks_next_event(sinks, event, sizeof event))
             log_limited(&event_limit, "", event);
+        last_frame_ns = t0;
         done++;
     }
     if (cap) {
