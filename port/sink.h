@@ -126,7 +126,8 @@ typedef struct pl_sink_stats {
  *                over plain HTTP GET on the same port (the live viewer, app/viewer): any path
  *                but the WebSocket's is a file under it ("/" is its index.html). Only files
  *                under the directory (libwebsockets refuses ".." and serves no listing), only
- *                known types (.html .js .css .png .jpg .json .svg ...: others 403), missing 404.
+ *                known types (.html .js .css .png .jpg .json .svg ...: others 415), missing 404;
+ *                symbolic links inside it are followed.
  *                Files go out a chunk per service call, so a page loads while the caller
  *                services the sink (pl_sink_service between frames, --wait-clients). Must be an
  *                existing directory at open (PL_E_ARG naming it otherwise). */
