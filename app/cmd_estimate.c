@@ -11,6 +11,7 @@
 #include "app/cli.h"
 #include "app/commands.h"
 #include "app/poses.h"
+#include "app/thumb.h"
 #include "core/ratelimit.h"
 #include "core/util.h"
 #include "light/light.h"
@@ -28,7 +29,7 @@ static void help(FILE *f)
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
             "                         [--realtime [--frame-interval MS]] [--fps-cap F]\n"
-            "                         [--anchor off|W,B[,GAMMA]] [--www DIR]\n"
+            "                         [--anchor off|W,B[,GAMMA]] [--www DIR] [--thumb W]\n"
             "                         [--loop] [--wait-clients N] [--max-clients N]\n"
             "                         [--unix-mode MODE] [--token-file F] [--max-pixels N]\n"
             "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n"
@@ -90,6 +91,8 @@ static void help(FILE *f)
             "                  tcp/unix/ws servers (a replay is not over before a viewer connects)\n"
             "  --www DIR       ws:// servers also serve the files under DIR over HTTP on the\n"
             "                  same port (the live viewer: parlight view, docs/VIEWER.md)\n"
+            "  --thumb W       add the frame as a W-pixel-wide JPEG (16..320) to each line:\n"
+            "                  \"thumb\":\"data:image/jpeg;base64,...\" (the viewer shows it)\n"
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
@@ -208,6 +211,27 @@ static int wait_for_readers(pl_sinks *sinks, int n, pl_ratelimit *event_limit)
     }
 }
 
+/* --thumb: the frame's line with "thumb" added before its closing brace; *out grows to
+ * THUMB_LINE_MAX once. A line that would be longer (a very detailed frame) goes without it. */
+#define THUMB_LINE_MAX 60000
+static int add_thumb(app_thumb *t, const pl_image_u8 *frame, int width, const char *line,
+                     char **out)
+{
+    const char *url;
+    int rc = app_thumb_make(t, frame, width, &url);
+    if (rc < 0) return rc;
+    size_t n = strlen(line), u = strlen(url);
+    if (n < 2 || line[n - 2] != '}' || line[n - 1] != '\n')
+        return pl_error(PL_E_ARG, "internal error: a line that does not end in \"}\\n\"");
+    if (n + u + 16 > THUMB_LINE_MAX)
+        return pl_error(PL_E_ARG, "the line would be %zu bytes, more than %d", n + u + 12,
+                        THUMB_LINE_MAX);
+    if (!*out && !(*out = malloc(THUMB_LINE_MAX)))
+        return pl_error(PL_E_NOMEM, "out of memory for the thumbnail line");
+    snprintf(*out, THUMB_LINE_MAX, "%.*s,\"thumb\":\"%s\"}\n", (int)(n - 2), line, url);
+    return 0;
+}
+
 /* --realtime without --frame-interval on a directory or still image: 30 fps, a camera's rate. */
 #define PL_DEFAULT_FRAME_INTERVAL_NS 33333333LL
 
@@ -253,6 +277,7 @@ int cmd_estimate(int argc, char **argv)
                                          {"wait-clients", required_argument, 0, 'W'},
                                          {"frame-interval", required_argument, 0, 1008},
                                          {"www", required_argument, 0, 1009},
+                                         {"thumb", required_argument, 0, 1010},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"mqtt-qos", required_argument, 0, 1001},
                                          {"mqtt-id", required_argument, 0, 1002},
@@ -269,6 +294,9 @@ int cmd_estimate(int argc, char **argv)
     double fps_cap = 0.0;
     int realtime = 0, have_anchor = 0, loop = 0, wait_clients = 0;
     int64_t interval_ns = 0; /* --frame-interval; 0: not given */
+    int thumb_w = 0;         /* --thumb; 0: none */
+    app_thumb thumb = {0};
+    char *thumb_line = NULL; /* the line with its "thumb" field */
     int have_orient = 0, n_pose_flags = 0;
     double fixed_q[4], fixed_R[9];
     const char *poses_path = NULL;
@@ -405,6 +433,11 @@ int cmd_estimate(int argc, char **argv)
         }
         case 1009:
             sink_opts.www_dir = optarg;
+            break;
+        case 1010:
+            if (cli_int("estimate", "--thumb", optarg, APP_THUMB_MIN_WIDTH, APP_THUMB_MAX_WIDTH,
+                        &thumb_w) < 0)
+                return 2;
             break;
         case 'h': help(stdout); return 0;
         default:
@@ -655,7 +688,12 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
-        if (pl_sinks_write(sinks, line, strlen(line)) < 0) {
+        const char *out_line = line;
+        if (thumb_w && add_thumb(&thumb, &fr.image, thumb_w, line, &thumb_line) == 0)
+            out_line = thumb_line;
+        else if (thumb_w)
+            log_limited(&warn_limit, "warning: no thumbnail for this frame: ", pl_last_error());
+        if (pl_sinks_write(sinks, out_line, strlen(out_line)) < 0) {
             if (n_outs == 0) { /* stdout alone: its reader is gone, nobody is listening */
                 fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
                 goto out;
@@ -692,6 +730,8 @@ int cmd_estimate(int argc, char **argv)
     }
     rc = 0;
 out:
+    app_thumb_free(&thumb);
+    free(thumb_line);
     cli_poses_free(&poses);
     pl_capture_stop(cap);
     pl_sinks_close(sinks);
