@@ -35,8 +35,9 @@ static void usage(FILE *f)
             "                  0.0.0.0 for every interface: anyone who can reach it may watch)\n"
             "  --www DIR       the viewer's folder (default %s)\n"
             "\n"
-            "With --input, view replays it for ever (--loop --realtime) and a directory at\n"
-            "one frame per 500 ms (--frame-interval 500) unless those are given. Any other\n"
+            "It adds --thumb 160 (the page shows the camera frame). With --input, view\n"
+            "replays it for ever (--loop --realtime) and a directory at one frame per 500 ms\n"
+            "(--frame-interval 500), each unless given. Any other\n"
             "option is parlight estimate's (parlight estimate --help): --out adds sinks,\n"
             "--wait-clients N waits for N pages before the first frame, --token-file F.\n",
             PL_VIEWER_DIR);
@@ -127,6 +128,10 @@ int cmd_view(int argc, char **argv)
     args[n++] = spec;
     args[n++] = "--www";
     args[n++] = (char *)www;
+    if (!has_flag(argc, argv, "--thumb")) { /* the page shows the camera frame */
+        args[n++] = "--thumb";
+        args[n++] = "160";
+    }
     const char *input = flag_value(argc, argv, "--input");
     if (input) {
         if (!has_flag(argc, argv, "--loop")) args[n++] = "--loop";

@@ -7,7 +7,8 @@
 # page's diffuse sphere against `parlight render --sphere diffuse` of the same line (linear RGB,
 # RMS <= 1% and largest error <= 3% of the peak), the primary light's shadow on the side away
 # from the light. Also: the static files (MIME types, 404, no way out of the folder by ".." or
-# %2e%2e) and the flags' errors (--frame-interval, view without node_modules).
+# %2e%2e), --thumb (a JPEG per line, shown by the page) and the flags' errors (--frame-interval,
+# --thumb, view without node_modules).
 # The screenshots are kept in $PL_VIEWER_SHOTS when set (tools/viewer-shots.sh -> docs/).
 # Bounded: every step has a timeout; the whole test takes about 30 s here.
 # needs: ws libjpeg
@@ -59,6 +60,20 @@ mkdir -p "$T/bare"
 expect 1 "node_modules/three.*missing.*npm ci" -- "$P" view --model "$M" --input tests/data/frames \
     --port 0 --www "$T/bare"
 expect 2 "--port" -- "$P" view --model "$M" --input tests/data/frames --port 70000
+expect 2 "--thumb '8'" -- "$P" estimate --model "$M" --input tests/data/frames --thumb 8
+expect 0 "" -- "$P" estimate --model "$M" --input tests/data/frames --thumb 64
+$PY - "$T/out" <<'PYEOF' && ok "--thumb 64: every line has a 64-pixel-wide JPEG as a data: URL" ||
+import base64, io, json, sys
+from PIL import Image
+lines = open(sys.argv[1]).read().splitlines()
+assert len(lines) == 5, len(lines)
+for l in lines:
+    t = json.loads(l)["thumb"]
+    assert t.startswith("data:image/jpeg;base64,"), t[:40]
+    im = Image.open(io.BytesIO(base64.b64decode(t.split(",", 1)[1])))
+    assert im.format == "JPEG" and im.size[0] == 64, (im.format, im.size)
+PYEOF
+    fail "--thumb 64: lines without a proper thumb field"
 # --realtime paces a directory: 5 frames at 200 ms take about 0.8 s (4 intervals), not 0.2
 t0=$(date +%s%N)
 expect 0 "" -- "$P" estimate --model "$M" --input tests/data/frames --realtime --frame-interval 200

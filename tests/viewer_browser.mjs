@@ -46,6 +46,8 @@ try {
         // frames keep arriving while the frozen one stays on screen
         await page.waitForFunction(n => window.viewer.frames >= n, FREEZE + 2,
             { timeout: WAIT_MS });
+        await page.waitForFunction(() => document.getElementById('thumb').complete,
+            null, { timeout: 10000 });
         await page.evaluate(() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r))));
         await page.screenshot({ path: path.join(out, 'viewer.png') });
         const state = await page.evaluate(() => {
@@ -63,7 +65,9 @@ try {
             }
             return { frames: v.frames, shown: v.shown, line: v.line, exposure: v.exposure,
                 ref: v.ref, width: innerWidth, height: innerHeight, title: document.title,
-                dom_frames: document.body.dataset.frames, casters, points: pts };
+                dom_frames: document.body.dataset.frames, casters, points: pts,
+                thumb: (im => ({ shown: !im.hidden, width: im.naturalWidth, height: im.naturalHeight,
+                    rect: im.getBoundingClientRect().toJSON() }))(document.getElementById('thumb')) };
         });
         await page.evaluate(() => window.viewer.setShadows(false));
         await page.screenshot({ path: path.join(out, 'noshadow.png') });

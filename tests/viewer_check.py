@@ -6,7 +6,7 @@ DIR holds what tests/viewer_browser.mjs wrote (state.json, viewer.png, noshadow.
 direct-noshadow.png). Checks, each printed as "ok ..." or "FAIL ...":
 
 1. frames: the page received frames (its counter went on past the frozen one) and the line on
-   screen is a parlight frame.
+   screen is a parlight frame; its camera frame ("thumb", a JPEG) is shown at its size.
 2. sphere: the reference sphere of the screenshot (orthographic, white Lambertian, lit by the
    line's engine form) against `parlight render --sphere diffuse` of the same line's lights, in
    linear RGB: the screenshot's sRGB bytes decoded and divided by the page's exposure. Over the
@@ -21,6 +21,8 @@ direct-noshadow.png). Checks, each printed as "ok ..." or "FAIL ...":
    where the casters' shadows should fall (along -dir onto the ground, projected by the page's
    camera), within SHADOW_COS; and the screenshot with the full lighting is darker there too.
 """
+import base64
+import io
 import json
 import math
 import subprocess
@@ -108,6 +110,17 @@ def main():
     if not all(k in frame for k in ("engine", "lights", "ambient", "primary")):
         fail("frames: the line on screen lacks engine/lights/ambient/primary")
         return
+    # the camera frame: the line's thumbnail, decoded and shown by the page at its own size
+    th = st["thumb"]
+    if "thumb" in frame:
+        size = Image.open(io.BytesIO(base64.b64decode(frame["thumb"].split(",", 1)[1]))).size
+        if th["shown"] and (th["width"], th["height"]) == size:
+            ok(f"camera frame: the line's {size[0]}x{size[1]} JPEG is shown at "
+               f"({th['rect']['x']:.0f}, {th['rect']['y']:.0f})")
+        else:
+            fail(f"camera frame: the line has a {size} JPEG, the page shows {th}")
+    else:
+        fail("camera frame: the line has no thumb field (parlight view adds --thumb 160)")
 
     # 2. sphere
     with open(f"{d}/lights.json", "w") as f:
