@@ -484,6 +484,14 @@ int cmd_estimate(int argc, char **argv)
                         "tcp://HOST:PORT, ws://HOST:PORT or unix:PATH\n");
         return 2;
     }
+    int n_ws = 0;
+    for (int i = 0; i < n_outs; i++)
+        n_ws += !strncmp(outs[i], "ws:", 3);
+    if (sink_opts.www_dir && !n_ws) {
+        fprintf(stderr, "parlight estimate: --www needs a ws:// server to serve from: --out "
+                        "ws://HOST:PORT[/PATH]\n");
+        return 2;
+    }
     if (password_file && !sink_opts.mqtt_username) {
         fprintf(stderr, "parlight estimate: --mqtt-password-file needs --mqtt-user\n");
         return 2;

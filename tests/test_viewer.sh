@@ -56,6 +56,8 @@ expect 2 "frame-interval 'x'" -- "$P" estimate --model "$M" --input tests/data/f
     --frame-interval x
 expect 2 "web directory $T/none" -- "$P" estimate --model "$M" --input tests/data/frames \
     --out ws://127.0.0.1:0/stream --www "$T/none"
+expect 2 "--www needs a ws:// server" -- "$P" estimate --model "$M" --input tests/data/frames \
+    --www app/viewer --out tcp://127.0.0.1:0
 mkdir -p "$T/bare"
 expect 1 "node_modules/three.*missing.*npm ci" -- "$P" view --model "$M" --input tests/data/frames \
     --port 0 --www "$T/bare"
