@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The live viewer in a real browser (docs/VIEWER.md): `parlight view` replays the sample frames
-# (tests/data/frames, shipped model, --realtime --frame-interval 300, --wait-clients 1) on
+# The live viewer in a real browser (docs/VIEWER.md): `parlight view` replays sample frames
+# (four of tests/data/frames, shipped model, --realtime --frame-interval 300, --wait-clients 1) on
 # loopback; its ws:// server also serves the page; Debian's headless Chromium (driven by
 # playwright-core from app/viewer/node_modules, tests/viewer_browser.mjs) opens it, keeps the 2nd
 # frame on screen and takes screenshots; tests/viewer_check.py checks them: frames received, the
@@ -89,7 +89,14 @@ else
 fi
 
 # ---- the stream and the page -------------------------------------------------------------------
-"$P" view --model "$M" --input tests/data/frames --port 0 --wait-clients 1 \
+# the sample frames whose primary light is high enough to cast its shadow on the ground in
+# view (workshop-skylights.jpg's is 9 degrees above the horizon): whichever frame the page
+# keeps, should a slow (sanitized) build drop one, the shadow check applies
+mkdir -p "$T/frames"
+for f in apartment-window lab-lamps lobby-ceiling-lights warehouse-tubes; do
+    ln -s "$PWD/tests/data/frames/$f.jpg" "$T/frames/$f.jpg"
+done
+"$P" view --model "$M" --input "$T/frames" --port 0 --wait-clients 1 \
     --frame-interval 300 --n-frames 200 >"$T/view.out" 2>"$T/view.err" &
 pids+=($!)
 PORT=$(port_of "$T/view.err") || { fail "view: no port ($(head -c 400 "$T/view.err"))"; finish; }
