@@ -313,6 +313,21 @@ function render() {
     renderer.setScissorTest(false);
 }
 
+// What the page relies on in a line (docs/OUTPUT.md), or why it cannot use it.
+function checkLine(f) {
+    const nums = (a, n) => Array.isArray(a) && (n === undefined || a.length === n) &&
+        a.every(v => typeof v === 'number' && Number.isFinite(v));
+    if (!f || typeof f !== 'object' || !f.engine) return 'no "engine": not a parlight stream?';
+    if (!nums(f.engine.dir, 3) || !nums(f.engine.intensity, 3) || !nums(f.engine.sh9, 27))
+        return '"engine" needs dir[3], intensity[3] and sh9[27] numbers';
+    if (!nums(f.ambient, 3) || !Array.isArray(f.lights)) return 'no "lights" or "ambient"';
+    for (const l of f.lights) {
+        if (!l || !nums(l.dir, 3) || !nums(l.rgb, 3) || !(l.solid_angle_sr > 0))
+            return 'a light without dir[3], rgb[3] and solid_angle_sr > 0';
+    }
+    return null;
+}
+
 const stamps = [];
 function onFrame(line) {
     let f;
@@ -327,8 +342,9 @@ function onFrame(line) {
         setStatus(`refused: ${viewer.error}`);
         return;
     }
-    if (!f.engine || !Array.isArray(f.lights) || !Array.isArray(f.ambient)) {
-        setStatus('a message without engine/lights/ambient: not a parlight stream?');
+    const why = checkLine(f);
+    if (why) {
+        setStatus(`ignored a message: ${why}`);
         return;
     }
     viewer.frames++;
