@@ -210,6 +210,8 @@ $(BUILD)/obj/tests/%.o: CFLAGS += $(BOARD_TEST_CFLAGS)
 # Codec files see their libraries' headers (libpng16's live in a subfolder).
 $(BUILD)/obj/port/png_codec.o $(BUILD)/obj/port/jpeg_codec.o: CFLAGS += $(CODEC_CFLAGS)
 $(BUILD)/obj/port/sink_ws.o $(BUILD)/obj/port/sink_mqtt.o: CFLAGS += $(NET_CFLAGS)
+# parlight view serves the viewer page from the source tree (--www overrides it).
+$(BUILD)/obj/app/cmd_view.o: CFLAGS += -DPL_VIEWER_DIR='"$(CURDIR)/app/viewer"'
 
 $(BUILD)/obj/%.o: %.c $(BUILD)/features
 	@mkdir -p $(dir $@)

@@ -11,6 +11,7 @@
 #include "app/cli.h"
 #include "app/commands.h"
 #include "app/poses.h"
+#include "app/thumb.h"
 #include "core/ratelimit.h"
 #include "core/util.h"
 #include "light/light.h"
@@ -27,7 +28,8 @@ static void help(FILE *f)
     fprintf(f,
             "usage: parlight estimate --model M.plm (--input PATH | --camera SPEC) [--n-frames K]\n"
             "                         [--threads N] [--at X,Y,Z] [--smooth ALPHA] [--out SPEC]...\n"
-            "                         [--realtime] [--fps-cap F] [--anchor off|W,B[,GAMMA]]\n"
+            "                         [--realtime [--frame-interval MS]] [--fps-cap F]\n"
+            "                         [--anchor off|W,B[,GAMMA]] [--www DIR] [--thumb W]\n"
             "                         [--loop] [--wait-clients N] [--max-clients N]\n"
             "                         [--unix-mode MODE] [--token-file F] [--max-pixels N]\n"
             "                         [--orientation W,X,Y,Z | --gravity X,Y,Z | --poses FILE]\n"
@@ -71,7 +73,11 @@ static void help(FILE *f)
             "                  and name HOST; --mqtt-cert F --mqtt-key F: a client certificate\n"
             "  --realtime      replay a video at its own frame rate through the live pipeline:\n"
             "                  frames that arrive while the network is busy are dropped and\n"
-            "                  counted in \"dropped\" (cameras always run this way)\n"
+            "                  counted in \"dropped\" (cameras always run this way); a\n"
+            "                  directory or still image at one frame per --frame-interval\n"
+            "  --frame-interval MS  with --realtime: milliseconds between the frames of a\n"
+            "                  directory or still image, like a camera (default 33.3: 30 fps;\n"
+            "                  up to 3600000); not for videos, which have their own rate\n"
             "  --fps-cap F     estimate at most F frames per second (live: the newest frame wins)\n"
             "  --orientation W,X,Y,Z  camera-to-world rotation (unit quaternion) of a fixed camera:\n"
             "                  lights, primary, sh9, engine and --at in world space\n"
@@ -83,6 +89,10 @@ static void help(FILE *f)
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
             "                  tcp/unix/ws servers (a replay is not over before a viewer connects)\n"
+            "  --www DIR       ws:// servers also serve the files under DIR over HTTP on the\n"
+            "                  same port (the live viewer: parlight view, docs/VIEWER.md)\n"
+            "  --thumb W       add the frame as a W-pixel-wide JPEG (16..320) to each line:\n"
+            "                  \"thumb\":\"data:image/jpeg;base64,...\" (the viewer shows it)\n"
             "  --anchor A      intensity anchor instead of the model's own (parlight info):\n"
             "                  scales the lighting by 2^(W ev + B), ev = log2(the frame's mean\n"
             "                  luminance over the lighting's); off: the network's intensity\n"
@@ -150,13 +160,15 @@ static void reload_model(const char *path, int threads, const double *anchor, fl
     fprintf(stderr, "parlight estimate: SIGHUP: model reloaded from %s\n", path);
 }
 
-/* Sleeps until the monotonic time `until_ns`, waking early on a stop request. */
-static void wait_until(int64_t until_ns)
+/* Sleeps until the monotonic time `until_ns`, waking early on a stop request, and services the
+ * servers every 20 ms meanwhile (a viewer page loading from --www, readers connecting). */
+static void wait_until(int64_t until_ns, pl_sinks *sinks)
 {
     while (!stop_requested) {
+        pl_sinks_service(sinks);
         int64_t left = until_ns - pl_now_ns();
         if (left <= 0) return;
-        struct timespec ts = {0, (long)(left < 50000000 ? left : 50000000)};
+        struct timespec ts = {0, (long)(left < 20000000 ? left : 20000000)};
         nanosleep(&ts, NULL);
     }
 }
@@ -199,6 +211,36 @@ static int wait_for_readers(pl_sinks *sinks, int n, pl_ratelimit *event_limit)
     }
 }
 
+/* --thumb: the frame's line with "thumb" added before its closing brace; *out grows to
+ * THUMB_LINE_MAX once. A line that would be longer (a very detailed frame) goes without it. */
+#define THUMB_LINE_MAX 60000
+static int add_thumb(app_thumb *t, const pl_image_u8 *frame, int width, const char *line,
+                     char **out)
+{
+    const char *url;
+    int rc = app_thumb_make(t, frame, width, &url);
+    if (rc < 0) return rc;
+    size_t n = strlen(line), u = strlen(url);
+    if (n < 2 || line[n - 2] != '}' || line[n - 1] != '\n')
+        return pl_error(PL_E_ARG, "internal error: a line that does not end in \"}\\n\"");
+    if (n + u + 16 > THUMB_LINE_MAX)
+        return pl_error(PL_E_ARG, "the line would be %zu bytes, more than %d", n + u + 12,
+                        THUMB_LINE_MAX);
+    if (!*out && !(*out = malloc(THUMB_LINE_MAX)))
+        return pl_error(PL_E_NOMEM, "out of memory for the thumbnail line");
+    snprintf(*out, THUMB_LINE_MAX, "%.*s,\"thumb\":\"%s\"}\n", (int)(n - 2), line, url);
+    return 0;
+}
+
+/* --realtime without --frame-interval on a directory or still image: 30 fps, a camera's rate. */
+#define PL_DEFAULT_FRAME_INTERVAL_NS 33333333LL
+
+static int start_capture(pl_source *src, int realtime, int64_t interval_ns, pl_capture **cap)
+{
+    return interval_ns ? pl_capture_start_paced(src, interval_ns, cap)
+                       : pl_capture_start(src, realtime, cap);
+}
+
 static int finite_lighting(const pl_lighting *L)
 {
     for (int i = 0; i < L->n_lights; i++) {
@@ -233,6 +275,9 @@ int cmd_estimate(int argc, char **argv)
                                          {"gravity", required_argument, 0, 'G'},
                                          {"poses", required_argument, 0, 'P'},
                                          {"wait-clients", required_argument, 0, 'W'},
+                                         {"frame-interval", required_argument, 0, 1008},
+                                         {"www", required_argument, 0, 1009},
+                                         {"thumb", required_argument, 0, 1010},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"mqtt-qos", required_argument, 0, 1001},
                                          {"mqtt-id", required_argument, 0, 1002},
@@ -248,6 +293,10 @@ int cmd_estimate(int argc, char **argv)
     float at[3] = {0, 0, 0}, alpha = -1.0f;
     double fps_cap = 0.0;
     int realtime = 0, have_anchor = 0, loop = 0, wait_clients = 0;
+    int64_t interval_ns = 0; /* --frame-interval; 0: not given */
+    int thumb_w = 0;         /* --thumb; 0: none */
+    app_thumb thumb = {0};
+    char *thumb_line = NULL; /* the line with its "thumb" field */
     int have_orient = 0, n_pose_flags = 0;
     double fixed_q[4], fixed_R[9];
     const char *poses_path = NULL;
@@ -370,6 +419,26 @@ int cmd_estimate(int argc, char **argv)
         case 1007:
             sink_opts.mqtt_key_file = optarg;
             break;
+        case 1008: {
+            double ms;
+            if (cli_double("estimate", "--frame-interval", optarg, 0, 3600000, 1, &ms) < 0)
+                return 2;
+            interval_ns = (int64_t)(ms * 1e6 + 0.5);
+            if (interval_ns <= 0) {
+                fprintf(stderr, "parlight estimate: --frame-interval '%s': expected milliseconds "
+                                "in (0, 3600000]\n", optarg);
+                return 2;
+            }
+            break;
+        }
+        case 1009:
+            sink_opts.www_dir = optarg;
+            break;
+        case 1010:
+            if (cli_int("estimate", "--thumb", optarg, APP_THUMB_MIN_WIDTH, APP_THUMB_MAX_WIDTH,
+                        &thumb_w) < 0)
+                return 2;
+            break;
         case 'h': help(stdout); return 0;
         default:
             return cli_getopt_error("estimate", c, argv);
@@ -401,6 +470,11 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: --loop replays files; a camera does not end\n");
         return 2;
     }
+    if (interval_ns && (!realtime || camera)) {
+        fprintf(stderr, "parlight estimate: --frame-interval paces a --realtime replay of "
+                        "--input (a directory or a still image)\n");
+        return 2;
+    }
     int n_servers = 0;
     for (int i = 0; i < n_outs; i++)
         n_servers += !strncmp(outs[i], "tcp:", 4) || !strncmp(outs[i], "unix:", 5) ||
@@ -408,6 +482,14 @@ int cmd_estimate(int argc, char **argv)
     if (wait_clients && !n_servers) {
         fprintf(stderr, "parlight estimate: --wait-clients needs a server to connect to: --out "
                         "tcp://HOST:PORT, ws://HOST:PORT or unix:PATH\n");
+        return 2;
+    }
+    int n_ws = 0;
+    for (int i = 0; i < n_outs; i++)
+        n_ws += !strncmp(outs[i], "ws:", 3);
+    if (sink_opts.www_dir && !n_ws) {
+        fprintf(stderr, "parlight estimate: --www needs a ws:// server to serve from: --out "
+                        "ws://HOST:PORT[/PATH]\n");
         return 2;
     }
     if (password_file && !sink_opts.mqtt_username) {
@@ -460,6 +542,17 @@ int cmd_estimate(int argc, char **argv)
             !strncmp(pl_sink_spec(k), "ws:", 3))
             fprintf(stderr, "parlight estimate: %s: listening on %s%s\n", pl_sink_spec(k),
                     pl_sink_address(k), sink_opts.token ? " (readers send the token first)" : "");
+        if (sink_opts.www_dir && !strncmp(pl_sink_spec(k), "ws:", 3)) {
+            /* the page connects to ws://its own host/stream unless told another path */
+            const char *path = strchr(pl_sink_spec(k) + 5, '/');
+            if (path && !strcmp(path, "/stream"))
+                fprintf(stderr, "parlight estimate: viewer: open http://%s/ in a browser\n",
+                        pl_sink_address(k));
+            else
+                fprintf(stderr, "parlight estimate: viewer: open http://%s/?ws=ws://%s%s in a "
+                                "browser\n", pl_sink_address(k), pl_sink_address(k),
+                        path ? path : "/");
+        }
     }
     if (stop_requested) goto stopped;
     reload_requested = 0; /* a SIGHUP before the first load asks for what it is about to read */
@@ -474,19 +567,31 @@ int cmd_estimate(int argc, char **argv)
         goto out;
     }
     if (stop_requested) goto stopped;
+    /* --realtime: a video at its own rate; a directory or still image (whose t_ns are file
+     * times) at one frame per --frame-interval, 30 fps by default */
+    if (realtime && !camera && !strncmp(pl_source_describe(src), "video:", 6)) {
+        if (interval_ns) {
+            fprintf(stderr, "parlight estimate: --frame-interval: %s is a video, replayed at its "
+                            "own frame rate\n", input);
+            rc = 2;
+            goto out;
+        }
+    } else if (realtime && !camera && !interval_ns) {
+        interval_ns = PL_DEFAULT_FRAME_INTERVAL_NS;
+    }
     if (wait_clients && wait_for_readers(sinks, wait_clients, &event_limit) < 0) goto stopped;
     /* cameras and --realtime replays run capture on its own thread (port/capture.h): the
      * newest frame wins and the ones replaced unseen are counted in "dropped" */
-    if ((camera || realtime) && pl_capture_start(src, realtime, &cap) < 0) {
+    if ((camera || realtime) && start_capture(src, realtime, interval_ns, &cap) < 0) {
         fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
         goto out;
     }
 
-    int64_t prev_t_ns = 0, last_start = 0;
+    int64_t prev_t_ns = 0, last_start = 0, last_frame_ns = 0;
     char line[16384], source[4096], event[512];
     for (;;) {
         if (n_frames && done >= n_frames) break;
-        if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap));
+        if (fps_cap > 0 && done) wait_until(last_start + (int64_t)(1e9 / fps_cap), sinks);
         if (stop_requested) break;
         if (reload_requested) {
             reload_requested = 0;
@@ -497,8 +602,13 @@ int cmd_estimate(int argc, char **argv)
         int64_t dropped = 0;
         int st;
         if (cap) {
-            st = pl_capture_take(cap, &fr, &dropped, 100);
-            if (st == PL_CAPTURE_AGAIN) continue;
+            st = pl_capture_take(cap, &fr, &dropped, 20);
+            if (st == PL_CAPTURE_AGAIN) { /* meanwhile the servers accept and serve files */
+                pl_sinks_service(sinks);
+                while (pl_sinks_next_event(sinks, event, sizeof event))
+                    log_limited(&event_limit, "", event);
+                continue;
+            }
         } else {
             st = pl_source_read(src, &fr);
         }
@@ -523,8 +633,9 @@ int cmd_estimate(int argc, char **argv)
             cap = NULL;
             pl_source_close(src);
             src = NULL;
+            if (interval_ns) wait_until(last_frame_ns + interval_ns, sinks); /* pace the seam */
             if (pl_source_open_path(input, &src) < 0 ||
-                (realtime && pl_capture_start(src, realtime, &cap) < 0)) {
+                (realtime && start_capture(src, realtime, interval_ns, &cap) < 0)) {
                 fprintf(stderr, "parlight estimate: --loop: %s\n", pl_last_error());
                 goto out;
             }
@@ -585,7 +696,12 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }
-        if (pl_sinks_write(sinks, line, strlen(line)) < 0) {
+        const char *out_line = line;
+        if (thumb_w && add_thumb(&thumb, &fr.image, thumb_w, line, &thumb_line) == 0)
+            out_line = thumb_line;
+        else if (thumb_w)
+            log_limited(&warn_limit, "warning: no thumbnail for this frame: ", pl_last_error());
+        if (pl_sinks_write(sinks, out_line, strlen(out_line)) < 0) {
             if (n_outs == 0) { /* stdout alone: its reader is gone, nobody is listening */
                 fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
                 goto out;
@@ -594,6 +710,7 @@ int cmd_estimate(int argc, char **argv)
         }
         while (pl_sinks_next_event(sinks, event, sizeof event))
             log_limited(&event_limit, "", event);
+        last_frame_ns = t0;
         done++;
     }
     if (cap) {
@@ -621,6 +738,8 @@ int cmd_estimate(int argc, char **argv)
     }
     rc = 0;
 out:
+    app_thumb_free(&thumb);
+    free(thumb_line);
     cli_poses_free(&poses);
     pl_capture_stop(cap);
     pl_sinks_close(sinks);

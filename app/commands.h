@@ -16,7 +16,8 @@
     X(eval, "score a model and baselines on crops of a folder of HDR panoramas")               \
     X(quantize, "float model -> int8 model calibrated on frames (minmax/percentile/entropy/mse)")  \
     X(qcheck, "int8 vs float: per-layer SQNR/cosine and end-to-end light errors")                \
-    X(bench, "time estimates on one frame: median/min/max ms, ISA, GMAC/s, peak RSS")
+    X(bench, "time estimates on one frame: median/min/max ms, ISA, GMAC/s, peak RSS")            \
+    X(view, "live viewer: estimate to a browser page (three.js) over WebSocket, prints the URL")
 
 #define PL_DECLARE(name, summary) int cmd_##name(int argc, char **argv);
 PL_COMMANDS(PL_DECLARE)

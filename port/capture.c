@@ -19,6 +19,7 @@ struct slot {
 struct pl_capture {
     pl_source *src;
     int realtime;
+    int64_t interval_ns; /* > 0: frame k at start + k * interval_ns (pl_capture_start_paced) */
     pthread_t thread;
     pthread_mutex_t mu;
     pthread_cond_t cv;
@@ -61,7 +62,7 @@ static void sleep_until(int64_t deadline_ns, const struct pl_capture *c)
 static void *capture_main(void *arg)
 {
     pl_capture *c = arg;
-    int64_t start_ns = 0, first_t = 0;
+    int64_t start_ns = 0, first_t = 0, released = 0;
     int have_first = 0, status = PL_E_EOF;
     for (;;) {
         pthread_mutex_lock(&c->mu);
@@ -78,7 +79,15 @@ static void *capture_main(void *arg)
             pthread_mutex_unlock(&c->mu);
             continue;
         }
-        if (c->realtime) {
+        if (c->interval_ns > 0) {
+            if (!have_first) {
+                start_ns = pl_now_ns();
+                have_first = 1;
+            } else {
+                sleep_until(start_ns + released * c->interval_ns, c);
+            }
+            released++;
+        } else if (c->realtime) {
             if (!have_first) {
                 start_ns = pl_now_ns();
                 first_t = f.t_ns;
@@ -112,7 +121,7 @@ static void *capture_main(void *arg)
     return NULL;
 }
 
-int pl_capture_start(pl_source *src, int realtime, pl_capture **out)
+static int capture_start(pl_source *src, int realtime, int64_t interval_ns, pl_capture **out)
 {
     *out = NULL;
     if (!src) return pl_error(PL_E_ARG, "pl_capture_start: source is NULL");
@@ -120,6 +129,7 @@ int pl_capture_start(pl_source *src, int realtime, pl_capture **out)
     if (!c) return pl_error(PL_E_NOMEM, "out of memory for the capture pipeline");
     c->src = src;
     c->realtime = realtime;
+    c->interval_ns = interval_ns;
     c->writing = 0;
     c->mailbox = -1;
     c->reading = 2;
@@ -133,6 +143,21 @@ int pl_capture_start(pl_source *src, int realtime, pl_capture **out)
     }
     *out = c;
     return PL_OK;
+}
+
+int pl_capture_start(pl_source *src, int realtime, pl_capture **out)
+{
+    return capture_start(src, realtime, 0, out);
+}
+
+int pl_capture_start_paced(pl_source *src, int64_t interval_ns, pl_capture **out)
+{
+    if (interval_ns <= 0 || interval_ns > PL_CAPTURE_MAX_INTERVAL_NS) {
+        *out = NULL;
+        return pl_error(PL_E_ARG, "capture: frame interval %lld ns: expected 1..%lld",
+                        (long long)interval_ns, (long long)PL_CAPTURE_MAX_INTERVAL_NS);
+    }
+    return capture_start(src, 1, interval_ns, out);
 }
 
 int pl_capture_take(pl_capture *c, pl_frame *frame, int64_t *dropped, int timeout_ms)

@@ -34,6 +34,13 @@ typedef struct pl_capture pl_capture;
  * frame k is released at start + t_ns(k) - t_ns(0)); live sources are paced by the device. */
 int pl_capture_start(pl_source *src, int realtime, pl_capture **out);
 
+/* The same, paced by a fixed interval instead of the frames' t_ns: the k-th good frame (from 0)
+ * is released at start + k * interval_ns (interval_ns > 0, at most PL_CAPTURE_MAX_INTERVAL_NS).
+ * For directories and still images, whose t_ns are file modification times that say nothing
+ * about a frame rate (--realtime --frame-interval). */
+#define PL_CAPTURE_MAX_INTERVAL_NS (3600LL * 1000000000LL)
+int pl_capture_start_paced(pl_source *src, int64_t interval_ns, pl_capture **out);
+
 /* Waits up to timeout_ms for a frame not yet taken. PL_OK: *frame holds the newest frame (valid
  * until the next take or stop) and *dropped the frames replaced unseen since the previous take.
  * PL_CAPTURE_AGAIN: nothing new yet. PL_E_EOF: the source ended and every frame was handed out.

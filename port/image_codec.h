@@ -40,6 +40,9 @@ int pl_jpeg_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u
                         size_t *cap);
 /* Writes baseline JPEG (4:2:0, quality 1..100, as OpenCV's imwrite does by default). */
 int pl_jpeg_write_rgb8(const char *path, const pl_image_u8 *img, int quality);
+/* The same into memory: *out (malloc'd, the caller frees it) holds *n bytes. PL_E_ARG for a bad
+ * image or quality, PL_E_NOMEM when libjpeg fails, PL_E_UNSUPPORTED without libjpeg. */
+int pl_jpeg_encode_rgb8(const pl_image_u8 *img, int quality, unsigned char **out, size_t *n);
 
 /* Decodes the PNG in p[0..n) (chunks and CRCs already checked) to 8-bit RGB: palette expanded,
  * gray replicated, alpha and tRNS dropped (not composited), 16-bit scaled as

@@ -208,7 +208,60 @@ typedef struct enc {
     struct jpeg_compress_struct c;
     jerr err;
     FILE *f;
+    unsigned char *mem; /* jpeg_mem_dest's buffer */
+    unsigned long mem_n;
 } enc;
+
+static void compress_rows(j_compress_ptr c, const pl_image_u8 *img, int quality)
+{
+    c->image_width = (JDIMENSION)img->width;
+    c->image_height = (JDIMENSION)img->height;
+    c->input_components = 3;
+    c->in_color_space = JCS_RGB;
+    jpeg_set_defaults(c);
+    jpeg_set_quality(c, quality, TRUE);
+    jpeg_start_compress(c, TRUE);
+    while (c->next_scanline < c->image_height) {
+        JSAMPROW r = img->data + (size_t)c->next_scanline * img->stride;
+        jpeg_write_scanlines(c, &r, 1);
+    }
+    jpeg_finish_compress(c);
+}
+
+int pl_jpeg_encode_rgb8(const pl_image_u8 *img, int quality, unsigned char **out, size_t *n)
+{
+    if (!out || !n) return pl_error(PL_E_ARG, "pl_jpeg_encode_rgb8: NULL output");
+    *out = NULL;
+    *n = 0;
+    if (!img || !img->data || img->width < 1 || img->height < 1 ||
+        img->stride < (size_t)img->width * 3)
+        return pl_error(PL_E_ARG, "pl_jpeg_encode_rgb8: invalid image");
+    if (quality < 1 || quality > 100)
+        return pl_error(PL_E_ARG, "JPEG quality %d, expected 1..100", quality);
+    if (img->width > 65500 || img->height > 65500)
+        return pl_error(PL_E_ARG, "%dx%d is too large for JPEG", img->width, img->height);
+    enc *s = calloc(1, sizeof *s);
+    if (!s) return pl_error(PL_E_NOMEM, "JPEG encoder: out of memory");
+    init_err(&s->err);
+    s->c.err = &s->err.pub;
+    int rc = PL_OK;
+    if (setjmp(s->err.jump)) {
+        rc = pl_error(PL_E_NOMEM, "JPEG encoder failed (libjpeg: %s)", s->err.msg);
+    } else {
+        jpeg_create_compress(&s->c);
+        jpeg_mem_dest(&s->c, &s->mem, &s->mem_n);
+        compress_rows(&s->c, img, quality);
+    }
+    jpeg_destroy_compress(&s->c);
+    if (rc == PL_OK) {
+        *out = s->mem;
+        *n = (size_t)s->mem_n;
+    } else {
+        free(s->mem);
+    }
+    free(s);
+    return rc;
+}
 
 int pl_jpeg_write_rgb8(const char *path, const pl_image_u8 *img, int quality)
 {
@@ -233,21 +286,9 @@ int pl_jpeg_write_rgb8(const char *path, const pl_image_u8 *img, int quality)
     if (setjmp(s->err.jump)) {
         rc = pl_error(PL_E_IO, "%s: JPEG encoder failed (libjpeg: %s)", path, s->err.msg);
     } else {
-        j_compress_ptr c = &s->c;
-        jpeg_create_compress(c);
-        jpeg_stdio_dest(c, s->f);
-        c->image_width = (JDIMENSION)img->width;
-        c->image_height = (JDIMENSION)img->height;
-        c->input_components = 3;
-        c->in_color_space = JCS_RGB;
-        jpeg_set_defaults(c);
-        jpeg_set_quality(c, quality, TRUE);
-        jpeg_start_compress(c, TRUE);
-        while (c->next_scanline < c->image_height) {
-            JSAMPROW r = img->data + (size_t)c->next_scanline * img->stride;
-            jpeg_write_scanlines(c, &r, 1);
-        }
-        jpeg_finish_compress(c);
+        jpeg_create_compress(&s->c);
+        jpeg_stdio_dest(&s->c, s->f);
+        compress_rows(&s->c, img, quality);
     }
     jpeg_destroy_compress(&s->c);
     if (fclose(s->f) != 0 && rc == PL_OK)
@@ -269,6 +310,14 @@ int pl_jpeg_decode_rgb8(const uint8_t *p, size_t n, const char *what, pl_image_u
     (void)p, (void)n, (void)img, (void)cap;
     return pl_error(PL_E_UNSUPPORTED, "%s: this build has no libjpeg: cannot decode JPEG",
                     what ? what : "JPEG");
+}
+
+int pl_jpeg_encode_rgb8(const pl_image_u8 *img, int quality, unsigned char **out, size_t *n)
+{
+    (void)img, (void)quality;
+    if (out) *out = NULL;
+    if (n) *n = 0;
+    return pl_error(PL_E_UNSUPPORTED, "this build has no libjpeg: cannot encode JPEG");
 }
 
 int pl_jpeg_write_rgb8(const char *path, const pl_image_u8 *img, int quality)

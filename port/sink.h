@@ -84,6 +84,7 @@
 #define PL_SINK_EVENT_MAX 256 /* longest event message, with its NUL */
 #define PL_SINK_WS_HANDSHAKES 16      /* ws connections beyond max_clients (handshake, refusal) */
 #define PL_SINK_WS_RX 512             /* ws receive chunk, bytes */
+#define PL_SINK_WS_FILE_CHUNK (64 * 1024) /* www_dir files: bytes sent per service call */
 #define PL_SINK_MQTT_INFLIGHT 32      /* mqtt messages handed to libmosquitto, not yet sent/acked */
 #define PL_SINK_MQTT_RETRY_MIN_MS 250 /* first wait before connecting again to the broker */
 #define PL_SINK_MQTT_RETRY_MAX_MS 8000 /* longest wait between attempts */
@@ -120,12 +121,22 @@ typedef struct pl_sink_stats {
  *                it receives nothing. Wrong, too long or late: a refusal line and EOF.
  *                1..PL_SINK_TOKEN_MAX bytes, no control characters. The token crosses the
  *                network in clear: it keeps out whoever can reach the port but cannot read the
- *                traffic (docs/OUTPUT.md, "Who can read the stream"). */
+ *                traffic (docs/OUTPUT.md, "Who can read the stream").
+ *   www_dir      ws only; NULL or "": none. A directory whose files the ws server also serves
+ *                over plain HTTP GET on the same port (the live viewer, app/viewer): any path
+ *                but the WebSocket's is a file under it ("/" is its index.html). Only files
+ *                under the directory (libwebsockets refuses ".." and serves no listing), only
+ *                known types (.html .js .css .png .jpg .json .svg ...: others 415), missing 404;
+ *                symbolic links inside it are followed.
+ *                Files go out a chunk per service call, so a page loads while the caller
+ *                services the sink (pl_sink_service between frames, --wait-clients). Must be an
+ *                existing directory at open (PL_E_ARG naming it otherwise). */
 typedef struct pl_sink_options {
     int max_clients;
     unsigned unix_mode;
     const char *token;
     int token_ms;
+    const char *www_dir;
     /* mqtt: strings are copied at open; NULL or "" = not set.
      *   mqtt_qos        0 (default) or 1
      *   mqtt_client_id  1..64 of [0-9A-Za-z_.-]; default "parlight-<pid>" (two clients with

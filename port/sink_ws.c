@@ -2,14 +2,18 @@
  * protocol (handshake, framing, pings, close) and this file doing what the tcp server does:
  * accepting (its own non-blocking listening socket, sink_server_open_tcp), admitting (max_clients,
  * token), queuing per client and dropping slow ones. No thread: every write and service call
- * runs lws_service with a negative timeout, which polls once without waiting. */
+ * runs lws_service with a negative timeout, which polls once without waiting. With a www_dir,
+ * plain HTTP GETs on the same port are served from it by libwebsockets' file mount (the
+ * viewer page, app/viewer). */
 #include <errno.h>
+#include <limits.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -55,6 +59,8 @@ typedef struct sink_ws {
     int conns;              /* adopted connections not yet destroyed, any state */
     unsigned char *scratch; /* LWS_PRE + PL_SINK_QUEUE_BYTES: one message with lws's headroom */
     int closing;            /* pl_sink_close: each client gets its queue, then a close frame */
+    char www[PATH_MAX];     /* www_dir, resolved ("" = no HTTP files) */
+    struct lws_http_mount mount;
 } sink_ws;
 
 static void client_unlink(sink_ws *w, ws_client *c)
@@ -301,6 +307,24 @@ static void ws_service_once(pl_sink *s, sink_ws *w)
         }
 }
 
+/* www_dir: resolved to an absolute path (the mount's origin) and checked to be a directory. */
+static int www_init(pl_sink *s, sink_ws *w, const char *dir)
+{
+    struct stat st;
+    if (!realpath(dir, w->www) || stat(w->www, &st) < 0)
+        return pl_error(PL_E_ARG, "sink '%s': web directory %s: %s", s->spec, dir, strerror(errno));
+    if (!S_ISDIR(st.st_mode)) {
+        w->www[0] = '\0';
+        return pl_error(PL_E_ARG, "sink '%s': web directory %s: not a directory", s->spec, dir);
+    }
+    w->mount.mountpoint = "/";
+    w->mount.mountpoint_len = 1;
+    w->mount.origin = w->www;
+    w->mount.def = "index.html";
+    w->mount.origin_protocol = LWSMPRO_FILE;
+    return 0;
+}
+
 int sink_ws_open(pl_sink *s, const sink_spec *sp, const pl_sink_options *opts)
 {
     int rc = sink_access_init(s, opts);
@@ -309,6 +333,8 @@ int sink_ws_open(pl_sink *s, const sink_spec *sp, const pl_sink_options *opts)
     if (!w) return pl_error(PL_E_NOMEM, "sink '%s': out of memory", s->spec);
     s->impl = w;
     snprintf(w->path, sizeof w->path, "%s", sp->resource);
+    if (opts && opts->www_dir && opts->www_dir[0] && (rc = www_init(s, w, opts->www_dir)) < 0)
+        return rc;
     w->scratch = malloc(LWS_PRE + PL_SINK_QUEUE_BYTES);
     if (!w->scratch) return pl_error(PL_E_NOMEM, "sink '%s': out of memory", s->spec);
     rc = sink_server_open_tcp(s, sp);
@@ -331,6 +357,12 @@ int sink_ws_open(pl_sink *s, const sink_spec *sp, const pl_sink_options *opts)
     info.user = s;
     info.timeout_secs = 5; /* for the HTTP upgrade */
     info.fd_limit_per_thread = (unsigned)(s->max_clients + PL_SINK_WS_HANDSHAKES + 16);
+    if (w->www[0]) {
+        info.mounts = &w->mount;
+        /* a file goes out one chunk of this size per writable (one per service call): 4 KiB,
+         * the default, took a second of frames to load three.js */
+        info.pt_serv_buf_size = PL_SINK_WS_FILE_CHUNK;
+    }
     w->ctx = lws_create_context(&info);
     if (w->ctx) w->vh = lws_create_vhost(w->ctx, &info);
     if (!w->ctx || !w->vh)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what parlight needs and is missing: Debian packages with apt-get (through sudo when
-# not root) and the npm packages the tests and sample tools read, into .deps/npm.
+# not root), the npm packages the tests and sample tools read, into .deps/npm, and the live
+# viewer's (npm ci in app/viewer).
 # Does nothing when everything is present. Run by `make demo` and `make test`.
 # With a cross board (`tools/install-deps.sh rpi5`, or BOARD=rpi5 in the environment, as
 # `make test BOARD=rpi5` passes it) it also installs that board's cross toolchain, qemu-user and
@@ -23,6 +24,8 @@ PKGS=(
     mosquitto mosquitto-clients  # tests/test_sink_mqtt.sh runs its own broker (own config, 127.0.0.1, a free
                            # port) and mosquitto_sub; a system broker the package may start is not used
     python3-websockets     # tests/test_sink_ws.sh: a browser-like WebSocket client
+    chromium curl          # tests/test_viewer.sh: the live viewer in headless Chromium (driven by
+                           # playwright-core from app/viewer/node_modules), its static files with curl
     python3-torch python3-torchvision python3-numpy python3-pil   # reference model, exporter, golden tests
     nodejs python3-onnx    # make bench: ONNX Runtime peer (npm onnxruntime-node under node) and its ONNX models (tools/bench)
     time                   # make bench: /usr/bin/time -v for the peak RSS of parlight estimate
@@ -66,6 +69,14 @@ if [ ${#missing[@]} -gt 0 ]; then
     fi
     $SUDO apt-get update -qq
     $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# npm: the live viewer's packages (three.js for the page, playwright-core for its browser test),
+# exactly as pinned in app/viewer/package-lock.json; again when the lock file changes.
+if [ ! -f app/viewer/node_modules/.package-lock.json ] ||
+    [ app/viewer/package-lock.json -nt app/viewer/node_modules/.package-lock.json ]; then
+    echo "install-deps: npm ci in app/viewer" >&2
+    (cd app/viewer && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
 fi
 
 # npm: CC0 HDR panoramas (@pmndrs/assets) for the sample-frame tool and the lighting tests.
