@@ -29,10 +29,15 @@ import sys
 import tempfile
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
-CROSS = "aarch64-linux-gnu-"
+# the target: aarch64 (the boards), or x86_64 (--host-x86: the method checked against this
+# machine's measured time, docs/PERFORMANCE.md)
+T = {"cross": "aarch64-linux-gnu-", "qemu": ["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu"],
+     "triple": "aarch64", "mattr": ["-mattr=+dotprod,+i8mm,+fullfp16,+v8.6a"],
+     "branch": r"^(b|bl|b\.\w+|cbn?z|tbn?z|adrp?|ldr|ldrsw|prfm)\s", "comment": "//"}
+T_X86 = {"cross": "", "qemu": ["qemu-x86_64"], "triple": "x86_64", "mattr": [],
+         "branch": r"^(j\w+|call|callq|jmp|jmpq)\s", "comment": "#"}
 MCA = os.environ.get("LLVM_MCA", "llvm-mca-19")
 MC = os.environ.get("LLVM_MC", "llvm-mc-19")
-MATTR = "+dotprod,+i8mm,+fullfp16,+v8.6a"
 
 # multiply-accumulates of one instruction, by mnemonic and arrangement of the destination
 MAC_RE = [
@@ -76,8 +81,7 @@ def mac_of(insn):
 
 def run_counted(binary, qemu_cpu, plugin, model, isa, runs, out, extra):
     env = dict(os.environ, PARLIGHT_ISA=isa)
-    cmd = ["qemu-aarch64", "-cpu", qemu_cpu, "-L", "/usr/aarch64-linux-gnu", "-plugin",
-           f"{plugin},out={out}", binary, "bench", "--model", model, "--threads", "1", "--runs",
+    cmd = T["qemu"] + ["-cpu", qemu_cpu, "-plugin", f"{plugin},out={out}", binary, "bench", "--model", model, "--threads", "1", "--runs",
            str(runs), "--warmup", "0", "--json"] + extra
     r = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if r.returncode != 0:
@@ -93,8 +97,20 @@ def run_counted(binary, qemu_cpu, plugin, model, isa, runs, out, extra):
     return start, counts, info
 
 
+def text_vaddr(binary):
+    """The link-time address of the executable segment, which qemu's start_code is the load
+    address of (0 on the aarch64 builds; x86-64 puts a read-only segment first)."""
+    r = subprocess.run([T["cross"] + "readelf", "-lW", binary], stdout=subprocess.PIPE, text=True,
+                       check=True)
+    for line in r.stdout.splitlines():
+        p = line.split()
+        if p and p[0] == "LOAD" and "E" in p[-2:-1][0]:
+            return int(p[2], 16)
+    return 0
+
+
 def symbols(binary):
-    r = subprocess.run([CROSS + "nm", "-n", "--defined-only", binary], stdout=subprocess.PIPE,
+    r = subprocess.run([T["cross"] + "nm", "-n", "--defined-only", binary], stdout=subprocess.PIPE,
                        text=True, check=True)
     syms = []
     for line in r.stdout.splitlines():
@@ -114,13 +130,13 @@ def symbols(binary):
 
 
 def disassemble(binary):
-    r = subprocess.run([CROSS + "objdump", "-d", "--no-show-raw-insn", binary],
+    r = subprocess.run([T["cross"] + "objdump", "-d", "--no-show-raw-insn", binary],
                        stdout=subprocess.PIPE, text=True, check=True)
     insns = {}
     for line in r.stdout.splitlines():
         m = re.match(r"^\s+([0-9a-f]+):\s+(.*)$", line)
         if m:
-            insns[int(m.group(1), 16)] = m.group(2).split("//")[0].strip()
+            insns[int(m.group(1), 16)] = m.group(2).split(T["comment"])[0].strip()
     return insns
 
 
@@ -128,8 +144,7 @@ def mca_text(insn, label):
     """objdump's text as llvm-mc reads it: branch and literal targets become a local label."""
     insn = re.sub(r"\s*<[^>]*>\s*$", "", insn).replace("\t", " ")
     return re.sub(r"(^|[ ,])(#?0x)?[0-9a-f]{3,}$", lambda m: m.group(1) + label, insn) \
-        if re.match(r"^(b|bl|b\.\w+|cbn?z|tbn?z|adrp?|ldr|ldrsw|prfm)\s", insn) \
-        and not re.search(r"\[", insn) else insn
+        if re.match(T["branch"], insn) and not re.search(r"[\[(]", insn) else insn
 
 
 def mca_cycles(blocks, cpu):
@@ -146,15 +161,15 @@ def mca_cycles(blocks, cpu):
         for _ in range(50):
             with open(src, "w") as f:
                 f.write("\n".join(lines) + "\n")
-            r = subprocess.run([MC, "-triple=aarch64", f"-mattr={MATTR}", "-filetype=null", src],
+            r = subprocess.run([MC, "-triple=" + T["triple"]] + T["mattr"] + ["-filetype=null", src],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             bad = {int(m.group(1)) for m in re.finditer(r"b\.s:(\d+):\d+: error", r.stderr)}
             if not bad:
                 break
             for n in bad:
                 lines[n - 1] = "  nop"
-        r = subprocess.run([MCA, "-mtriple=aarch64", f"-mcpu={cpu}", f"-mattr={MATTR}",
-                            "-iterations=100", "-all-views=false", "-summary-view", src],
+        r = subprocess.run([MCA, "-mtriple=" + T["triple"], f"-mcpu={cpu}"] + T["mattr"] +
+                           ["-iterations=100", "-all-views=false", "-summary-view", src],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         if r.returncode != 0:
             sys.exit(f"predict: llvm-mca failed: {r.stderr[-400:]}")
@@ -208,14 +223,30 @@ def main():
                     help="share of the frame's instructions given to llvm-mca block by block")
     ap.add_argument("--loops", type=int, default=8, help="hot blocks to list")
     ap.add_argument("--json", help="write the result here too")
+    ap.add_argument("--host-x86", action="store_true",
+                    help="check the method on this x86-64 machine instead: build/parlight under "
+                         "qemu-x86_64 -cpu max (its avx2 path), llvm-mca -mcpu=--mca-cpu, at "
+                         "--clock-ghz; compare with parlight bench's CPU time here")
+    ap.add_argument("--mca-cpu", help="with --host-x86: llvm-mca's model of this CPU")
+    ap.add_argument("--clock-ghz", help="with --host-x86: this CPU's clock")
     a = ap.parse_args()
     if a.summary:
         summary(a.summary)
         return
-    if not a.board or not a.model:
+    if a.host_x86:
+        if not (a.model and a.mca_cpu and a.clock_ghz):
+            ap.error("--host-x86 needs --model, --mca-cpu and --clock-ghz")
+        T.update(T_X86)
+        a.board = "host-x86"
+        a.build = a.build or os.path.join(ROOT, "build")
+        a.isa = a.isa or "avx2"
+    elif not a.board or not a.model:
         ap.error("--board and --model are needed")
 
-    bv = board_vars(a.board)
+    bv = board_vars(a.board) if not a.host_x86 else {
+        "BOARD_PREDICT_CLOCK_GHZ": a.clock_ghz, "BOARD_PREDICT_DRAM_GBS": "10",
+        "BOARD_PREDICT_MCA_CPU": a.mca_cpu, "BOARD_QEMU_CPU": "max", "BOARD_THREADS": "1",
+        "BOARD_CPU": "this machine"}
     build = a.build or os.path.join(ROOT, "build", a.board)
     binary = os.path.join(build, "parlight")
     clock = float(bv["BOARD_PREDICT_CLOCK_GHZ"]) * 1e9
@@ -234,10 +265,13 @@ def main():
         if n > 0:
             frame[key] = n
     total_insns = sum(n * k[1] for k, n in frame.items())
+    start -= text_vaddr(binary)
 
     syms = symbols(binary)
     sym_addr = [s[0] for s in syms]
     insns = disassemble(binary)
+    ilist = sorted(insns.items())
+    at = {addr: i for i, (addr, _) in enumerate(ilist)}
     import bisect
 
     def func_of(rel):
@@ -249,8 +283,9 @@ def main():
     blocks, meta, acc, outside = {}, {}, 0, 0
     for (vaddr, n), cnt in order:
         rel = vaddr - start
-        body = [insns.get(rel + 4 * i) for i in range(n)]
-        if None in body:
+        i = at.get(rel)  # x86 instructions have no fixed length: the n after the first
+        body = [t for _, t in ilist[i:i + n]] if i is not None else []
+        if len(body) < n:
             outside += cnt * n
             continue
         if acc >= a.cover * (total_insns - outside):
@@ -272,8 +307,9 @@ def main():
         f[0] += cyc[k] * cnt
         f[1] += n * cnt
         f[2] += sum(mac_of(t)[0] for t in blocks[k]) * cnt
-    peaks = {kind: peak_macs(cpu, kind) for kind in ("neon", "dotprod", "fp32")}
-    if "i8mm" in MATTR and isa == "i8mm":
+    kinds = ("neon", "dotprod", "fp32") if T["triple"] == "aarch64" else ()
+    peaks = {kind: peak_macs(cpu, kind) for kind in kinds} or {"neon": float("nan")}
+    if isa == "i8mm":
         peaks["i8mm"] = peak_macs(cpu, "i8mm")
     peak_isa = peaks.get(isa, peaks["neon"])
 

@@ -9,7 +9,7 @@
 # both paths on each board). Needs qemu-user, gcc-aarch64-linux-gnu and llvm-19
 # (tools/install-deps.sh rpi5). Takes ~N minutes (qemu runs each model twice per board and path).
 set -euo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../../.."
 BOARDS=${BENCH_ARM_BOARDS:-rpi4 rpi5 jetson-orin}
 OUT=build/bench/arm
 mkdir -p "$OUT" build/tools
