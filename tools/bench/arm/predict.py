@@ -8,10 +8,11 @@
    qemu-aarch64 with tools/bench/arm/tbcount.c (a TCG plugin counting each translation block's
    executions), once with --runs 1 and once with --runs 2 (--warmup 0, --threads 1); the
    difference is one frame, model loading and start-up cancel out.
-2. Cycles: every block that ran is disassembled from the ELF file and given to llvm-mca for the
-   board's core; a block costs (its executions) x (llvm-mca's cycles per iteration of it as a
-   loop body: steady state, L1 hits, branches predicted). Blocks outside the program (libc)
-   are charged at 1 cycle per instruction.
+2. Cycles: the blocks that make up --cover (99.9%) of the frame's instructions are disassembled
+   from the ELF file and given to llvm-mca for the board's core; a block costs (its executions)
+   x (llvm-mca's cycles per iteration of it as a loop body: steady state, L1 hits, branches
+   predicted). The remaining blocks are charged the priced ones' mean cycles per instruction,
+   blocks outside the program (libc) 1 cycle per instruction.
 3. ms/frame = cycles / clock, against the memory bound (the model's weight bytes, streamed once a
    frame, over the board's DRAM bandwidth): the prediction is the larger of the two, the sum
    the top of its range.
@@ -20,6 +21,7 @@ Board facts (clock, DRAM bandwidth, cores, llvm-mca model, qemu CPU) are read fr
 boards/<board>.mk (BOARD_PREDICT_*), the MAC peaks per ISA from llvm-mca itself on a stream of
 independent multiply instructions. Prints a table; --json writes the same as JSON."""
 import argparse
+import bisect
 import collections
 import json
 import os
@@ -272,7 +274,6 @@ def main():
     insns = disassemble(binary)
     ilist = sorted(insns.items())
     at = {addr: i for i, (addr, _) in enumerate(ilist)}
-    import bisect
 
     def func_of(rel):
         i = bisect.bisect_right(sym_addr, rel) - 1

@@ -7,7 +7,8 @@
 # shipped 96x128 int8 model and the seeded 192x256 model's int8 twin, made as `make bench` makes
 # it), BENCH_ARM_ISAS (default: each board's BOARD_PREDICT_ISA; e.g. "neon dotprod" predicts
 # both paths on each board). Needs qemu-user, gcc-aarch64-linux-gnu and llvm-19
-# (tools/install-deps.sh rpi5). Takes ~N minutes (qemu runs each model twice per board and path).
+# (tools/install-deps.sh rpi5). Takes ~10 minutes on a 2-core machine (qemu runs each model twice
+# per board and path).
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
 BOARDS=${BENCH_ARM_BOARDS:-rpi4 rpi5 jetson-orin}
