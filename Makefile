@@ -306,6 +306,14 @@ bench:
 	@$(MAKE) --no-print-directory $(CLI) build/models/seeded-n3.plm
 	@BUILD=$(BUILD) tools/bench/run.sh
 
+# Raspberry Pi 4, Pi 5 and Jetson Orin frame times predicted here, without a board: qemu counts the
+# instructions of a real frame, llvm-mca prices each block for the board's core
+# (tools/bench/arm/run.sh; docs/PERFORMANCE.md, "Arm predicted by simulation"; ~15 min).
+.PHONY: bench-arm
+bench-arm:
+	@BOARD=rpi5 tools/install-deps.sh
+	@tools/bench/arm/run.sh
+
 format-check:
 	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror
 

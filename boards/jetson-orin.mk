@@ -15,6 +15,15 @@ BOARD_CAMERA   := v4l2:/dev/video0
 BOARD_PKG_CONFIG_LIBDIR := /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig
 BOARD_DEB_ARCH := arm64
 BOARD_QEMU_CPU := neoverse-n1
+# tools/bench/arm/predict.py (make bench-arm, docs/PERFORMANCE.md "Arm predicted by simulation"):
+# the Orin Nano's A78AE at 1.5 GHz (1.73 in its "super" mode; NX 2.0, AGX 2.2), LPDDR5 on a
+# 128-bit bus (68 GB/s peak, shared with the GPU; ~25 GB/s for the CPU cluster). llvm-mca has no
+# Cortex-A78 model (-mcpu=cortex-a78 falls back to the A57's): Neoverse N1's stands in (the same
+# two 128-bit ASIMD pipes with sdot on both; the A78's front end is wider, so this errs slow).
+BOARD_PREDICT_CLOCK_GHZ := 1.5
+BOARD_PREDICT_DRAM_GBS  := 25
+BOARD_PREDICT_MCA_CPU   := neoverse-n1
+BOARD_PREDICT_ISA       := dotprod
 BOARD_RUNNER   := qemu-aarch64 -cpu $(BOARD_QEMU_CPU) -L /usr/aarch64-linux-gnu
 # Debian 12's aarch64 gcc 12.2 crashes (ICE in vect_transform_reduction) when it vectorises an
 # fmax() reduction over doubles, a pattern the tests use (test_sg.c, test_eval.c): no loop

@@ -18,6 +18,14 @@ BOARD_PKG_CONFIG_LIBDIR := /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgco
 BOARD_DEB_ARCH := arm64
 # How tests run on this machine: user-mode emulation of the board's CPU.
 BOARD_QEMU_CPU := cortex-a72
+# tools/bench/arm/predict.py (make bench-arm, docs/PERFORMANCE.md "Arm predicted by simulation"):
+# the Pi 4 B's A72 at 1.8 GHz (1.5 GHz on boards before rev 1.4 / 2020 firmware), LPDDR4-3200 on a
+# 32-bit bus (12.8 GB/s peak; ~4 GB/s is what one core streams), the A72 as llvm-mca models it
+# (LLVM's Cortex-A57 model: the A72 is its revision, same F0/F1 ASIMD pipes).
+BOARD_PREDICT_CLOCK_GHZ := 1.8
+BOARD_PREDICT_DRAM_GBS  := 4
+BOARD_PREDICT_MCA_CPU   := cortex-a72
+BOARD_PREDICT_ISA       := neon
 BOARD_RUNNER   := qemu-aarch64 -cpu $(BOARD_QEMU_CPU) -L /usr/aarch64-linux-gnu
 # Debian 12's aarch64 gcc 12.2 crashes (ICE in vect_transform_reduction) when it vectorises an
 # fmax() reduction over doubles, a pattern the tests use (test_sg.c, test_eval.c): no loop

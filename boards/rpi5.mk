@@ -14,6 +14,14 @@ BOARD_CAMERA   := libcamera:0
 BOARD_PKG_CONFIG_LIBDIR := /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig
 BOARD_DEB_ARCH := arm64
 BOARD_QEMU_CPU := cortex-a76
+# tools/bench/arm/predict.py (make bench-arm, docs/PERFORMANCE.md "Arm predicted by simulation"):
+# the A76 at 2.4 GHz, LPDDR4X-4267 on a 32-bit bus (17 GB/s peak; ~9 GB/s sustained). llvm-mca has
+# no Cortex-A76 model of its own (-mcpu=cortex-a76 falls back to the A57's): Neoverse N1 is the
+# A76's core (same pipelines: two 128-bit ASIMD, sdot on both).
+BOARD_PREDICT_CLOCK_GHZ := 2.4
+BOARD_PREDICT_DRAM_GBS  := 9
+BOARD_PREDICT_MCA_CPU   := neoverse-n1
+BOARD_PREDICT_ISA       := dotprod
 BOARD_RUNNER   := qemu-aarch64 -cpu $(BOARD_QEMU_CPU) -L /usr/aarch64-linux-gnu
 # Debian 12's aarch64 gcc 12.2 crashes (ICE in vect_transform_reduction) when it vectorises an
 # fmax() reduction over doubles, a pattern the tests use (test_sg.c, test_eval.c): no loop

@@ -79,8 +79,9 @@ void pl_isa_paths_of(const pl_cpu_features *f, int paths[PL_ISA_COUNT])
 
 pl_isa pl_isa_best(const int paths[PL_ISA_COUNT])
 {
-    /* Best first. AMX is not chosen automatically until it has kernels that beat VNNI; int8
-     * matters more than fp32, so AVX-VNNI goes before AVX-512F. */
+    /* Best first. AMX (its tile convolution, PARLIGHT_ISA=amx) is not chosen automatically: it
+     * has run exact only with its tile instructions emulated, never on AMX hardware, nor been
+     * timed against VNNI. int8 matters more than fp32, so AVX-VNNI goes before AVX-512F. */
     static const pl_isa order[] = {PL_ISA_AVX512VNNI, PL_ISA_AVXVNNI, PL_ISA_AVX512F, PL_ISA_AVX2,
                                    PL_ISA_I8MM,       PL_ISA_DOTPROD, PL_ISA_NEON};
     for (size_t i = 0; i < sizeof order / sizeof order[0]; i++)

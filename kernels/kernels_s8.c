@@ -237,7 +237,8 @@ static void pack_i8mm(pl_s8_conv *c, const int8_t *weights, const int32_t *bias,
         .avgpool_name = "nn_avgpool2d_s8__" #a_, .clamp_name = "nn_clamp_s8__" #a_               \
     }
 
-/* Each path takes the kernels whose instructions it guarantees (kernels/isa.h): avx512vnni the
+/* Each path takes the kernels whose instructions it guarantees (kernels/isa.h): amx the AMX
+ * convolution and avx512vnni's other kernels; avx512vnni the
  * AVX-512 F/BW/DQ/VL A builders and pools and the VNNI convolution; avxvnni, and avx512f (AVX-512
  * without VNNI: no int8 kernel of its own), the AVX2 ones. */
 void pl_kernels_s8_fill(pl_kernels_s8 *t, pl_isa isa)
@@ -245,7 +246,9 @@ void pl_kernels_s8_fill(pl_kernels_s8 *t, pl_isa isa)
     memset(t, 0, sizeof *t);
     t->layout = PL_S8_LAYOUT_NONE;
 #if defined(__x86_64__)
-    if (pl_isa_includes(isa, PL_ISA_AVX512VNNI))
+    if (pl_isa_includes(isa, PL_ISA_AMX))
+        *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx512skx, nn_conv_packed_s8_16x32c4__amx);
+    else if (pl_isa_includes(isa, PL_ISA_AVX512VNNI))
         *t = PL_S8_TABLE(PL_S8_LAYOUT_VNNI, pack_vnni, avx512skx,
                          nn_conv_packed_s8_14x32c4__avx512vnni);
     else if (pl_isa_includes(isa, PL_ISA_AVXVNNI))

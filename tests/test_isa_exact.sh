@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The int8 network gives byte-identical JSON (timing and timestamp fields removed) on every
 # instruction-set path this CPU runs — PARLIGHT_ISA=ref (the reference kernels), avx2, avxvnni,
-# avx512f (AVX-512 without VNNI: the AVX2 int8 kernels), avx512vnni on x86, neon, dotprod, i8mm on Arm (under qemu: the -cpu model decides) — and with 1
+# avx512f (AVX-512 without VNNI: the AVX2 int8 kernels), avx512vnni, amx (where the CPU has it) on x86, neon, dotprod, i8mm on Arm (under qemu: the -cpu model decides) — and with 1
 # or 2 threads: the SIMD kernels are bit-exact and the work split does
 # not change a bit. (The reference path runs once, with 2 threads, as the baseline: it is 60-100x
 # slower, and its independence of the thread count is tests/test_quantize.sh's.) Models: int8 quantisations of build/models/seeded-n3.plm (192x256) and, when
@@ -57,7 +57,7 @@ for MK in $MODELS; do
         2>"$T/qerr" || fail "quantize $MK: $(cat "$T/qerr")"
     ref=""
     simd=0
-    for isa in ref avx2 avxvnni avx512f avx512vnni neon dotprod i8mm; do
+    for isa in ref avx2 avxvnni avx512f avx512vnni amx neon dotprod i8mm; do
         ths=$THREADS
         [ "$isa" = ref ] && ths=$REF_TH
         for th in $ths; do
@@ -95,7 +95,7 @@ Q="$T/$OBS_MODEL-int8.plm"
 PARLIGHT_ISA=ref "$BUILD/tests/observe_dump" "$Q" $REF_TH >"$T/obs-ref" 2>"$T/err" ||
     fail "observe_dump under ref: $(cat "$T/err")"
 [ "$(wc -l <"$T/obs-ref")" -eq 122 ] || fail "observe_dump: $(wc -l <"$T/obs-ref") layers, expected 122"
-for isa in avx2 avxvnni avx512f avx512vnni neon dotprod i8mm; do
+for isa in avx2 avxvnni avx512f avx512vnni amx neon dotprod i8mm; do
     for th in $THREADS; do
         PARLIGHT_ISA=$isa "$BUILD/tests/observe_dump" "$Q" $th >"$T/obs" 2>"$T/err" ||
             { echo "observer: skip $isa: $(cat "$T/err")"; continue 2; }

@@ -1,18 +1,19 @@
 /* The packed int8 SIMD path (kernels/kernels_s8.h) against the reference kernels, tolerance 0,
- * on every SIMD path this CPU runs (x86: avx2, avxvnni, avx512vnni; Arm: neon, dotprod, i8mm;
- * pl_kernels_for; paths it lacks are reported and skipped):
+ * on every SIMD path this CPU runs (x86: avx2, avxvnni, avx512vnni, amx; Arm: neon, dotprod,
+ * i8mm; pl_kernels_for; paths it lacks are reported and skipped), and on x86 with AVX-512 VNNI
+ * the AMX kernel with its tile instructions emulated in C:
  * k x k convolutions with strides, dilation and padding (nn_conv2d_s8__ref), 1x1 convolutions
  * with and without the per-input-channel clamp and with strides (nn_conv1x1_clamp_s8__ref,
  * nn_conv1x1_s8__ref), fully connected layers (nn_fc_s8__ref, per channel and per tensor), on
  * random shapes: tile remainders (pixels and channels), odd channel counts, input pixel strides,
  * outputs at a channel offset of a wider buffer (bytes outside the channels must stay untouched),
  * maxpool, average pool with the fused clamp and clamp (vs nn_maxpool2d_s8__ref,
- * nn_avgpool2d_s8__ref, nn_clamp_s8__ref); extreme values -128/127, input offsets over [-127, 128], every shift in [-31, 30] (left shifts
- * that saturate included), multipliers 0 and near 2^31, biases near the int32 wrap, depths up to
- * the network's 9*128 and 1024 channels; k x k convolutions both through a_pad and through
- * a_rows (the row taps folded into the channels, as for the stem); outputs whose rows are apart
- * (out_pitch) and written as u8 (out_xor); and the work computed in random pieces of pixels and
- * channels, in random order, equals the whole. */
+ * nn_avgpool2d_s8__ref, nn_clamp_s8__ref); extreme values -128/127, input offsets over [-127, 128],
+ * every shift in [-31, 30] (left shifts that saturate included), multipliers 0 and near 2^31,
+ * biases near the int32 wrap, depths up to the network's 9*128 and 1024 channels; k x k
+ * convolutions both through a_pad and through a_rows (the row taps folded into the channels, as for
+ * the stem); outputs whose rows are apart (out_pitch) and written as u8 (out_xor); and the work
+ * computed in random pieces of pixels and channels, in random order, equals the whole. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +21,9 @@
 #include "core/util.h"
 #include "kernels/dispatch.h"
 #include "kernels/ref/nn_ref_s8_clamp.h"
+#if defined(__x86_64__)
+#include "kernels/x86/nn_s8_x86.h"
+#endif
 #include "tests/check.h"
 
 /* int8 values; mode 0: random with a quarter at -128/127, 1: all -128, 2: all 127,
@@ -520,11 +524,43 @@ static void test_network_shapes(const pl_kernels_s8 *K, const char *isa)
     }
 }
 
+/* Every test on one path's slots; returns 1 when it ran them all exactly. */
+static int run_path(const pl_kernels_s8 *K, const char *isa)
+{
+    const int before = failures;
+    for (int iter = 0; iter < 300; iter++) {
+        test_case(K, isa, K_CONV, iter, 0);
+        test_case(K, isa, K_1X1, iter, 0);
+        test_case(K, isa, K_1X1_CLAMP, iter, 0);
+        test_case(K, isa, K_FC, iter, 0);
+    }
+    for (int iter = 0; iter < 40; iter++) {
+        test_case(K, isa, K_CONV, iter, 1);
+        test_case(K, isa, K_1X1_CLAMP, iter, 1);
+        test_case(K, isa, K_FC, iter, 1);
+    }
+    for (int iter = 0; iter < 200; iter++)
+        test_pools(K, isa, iter);
+    test_network_shapes(K, isa);
+    CHECK(n_short > 300 && n_long > 300,
+          "%s: %d convolutions qualified for the short requantisation, %d did not: both "
+          "should be well covered",
+          isa, n_short, n_long);
+    printf("path %s: %d convolutions qualified for the short requantisation (AVX-512 runs "
+           "it), %d did not\n",
+           isa, n_short, n_long);
+    n_short = n_long = 0;
+    printf("path %s: %s (%s, %s, %s)\n", isa, failures == before ? "ok" : "FAILED", K->run_name,
+           K->a_pack_name, K->a_pad_name);
+    return failures == before;
+}
+
 int main(void)
 {
-    /* avx512f has no int8 kernel of its own (AVX-512 without VNNI runs avx2's) */
-    static const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI,
-                                   PL_ISA_NEON, PL_ISA_DOTPROD,   PL_ISA_I8MM};
+    /* avx512f has no int8 kernel of its own (AVX-512 without VNNI runs avx2's); amx runs only
+     * where the CPU has AMX and Linux grants the tile state */
+    static const pl_isa paths[] = {PL_ISA_AVX2, PL_ISA_AVXVNNI, PL_ISA_AVX512VNNI, PL_ISA_AMX,
+                                   PL_ISA_NEON, PL_ISA_DOTPROD, PL_ISA_I8MM};
     int ran = 0;
     for (size_t i = 0; i < sizeof paths / sizeof paths[0]; i++) {
         const char *isa = pl_isa_name(paths[i]);
@@ -537,31 +573,22 @@ int main(void)
             printf("path %s: no packed int8 kernels in this build, skipped\n", isa);
             continue;
         }
-        const int before = failures;
-        for (int iter = 0; iter < 300; iter++) {
-            test_case(&k.s8, isa, K_CONV, iter, 0);
-            test_case(&k.s8, isa, K_1X1, iter, 0);
-            test_case(&k.s8, isa, K_1X1_CLAMP, iter, 0);
-            test_case(&k.s8, isa, K_FC, iter, 0);
-        }
-        for (int iter = 0; iter < 40; iter++) {
-            test_case(&k.s8, isa, K_CONV, iter, 1);
-            test_case(&k.s8, isa, K_1X1_CLAMP, iter, 1);
-            test_case(&k.s8, isa, K_FC, iter, 1);
-        }
-        for (int iter = 0; iter < 200; iter++)
-            test_pools(&k.s8, isa, iter);
-        test_network_shapes(&k.s8, isa);
-        CHECK(n_short > 300 && n_long > 300,
-              "%s: %d convolutions qualified for the short requantisation, %d did not: both "
-              "should be well covered", isa, n_short, n_long);
-        printf("path %s: %d convolutions qualified for the short requantisation (AVX-512 runs "
-               "it), %d did not\n", isa, n_short, n_long);
-        n_short = n_long = 0;
-        printf("path %s: %s (%s, %s, %s)\n", isa, failures == before ? "ok" : "FAILED",
-               k.s8.run_name, k.s8.a_pack_name, k.s8.a_pad_name);
+        run_path(&k.s8, isa);
         ran++;
     }
+#if defined(__x86_64__)
+    /* The AMX kernel with its tile instructions emulated (kernels/x86/nn_conv_packed_s8_tmpl.h):
+     * its packing, tile shapes, accumulation and requantisation on any AVX-512 VNNI CPU. */
+    pl_kernels k;
+    if (pl_kernels_for(PL_ISA_AVX512VNNI, &k) == 0 && k.s8.packed) {
+        k.s8.run = nn_conv_packed_s8_16x32c4_amxemu__avx512vnni;
+        k.s8.run_name = "nn_conv_packed_s8_16x32c4_amxemu__avx512vnni";
+        run_path(&k.s8, "amx (tiles emulated)");
+        ran++;
+    } else {
+        printf("path amx (tiles emulated): needs avx512vnni, skipped\n");
+    }
+#endif
     if (failures) {
         printf("%d failures\n", failures);
         return 1;

@@ -41,6 +41,7 @@ case "$DEB_ARCH" in
         PKGS+=(
             gcc-aarch64-linux-gnu g++-aarch64-linux-gnu libc6-dev-arm64-cross  # cross toolchain
             qemu-user                                     # runs the board's tests (qemu-aarch64)
+            llvm-19                # make bench-arm: llvm-mca-19 (Neoverse N1 model for the A76/A78)
             libjpeg62-turbo-dev:arm64 libpng-dev:arm64 zlib1g-dev:arm64  # the target's codecs
             libmosquitto-dev:arm64 # the target's mqtt:// sink. Not libwebsockets-dev:arm64: Debian 12's
                                    # cannot sit beside the host's (their /usr/include/lws_config.h

@@ -3,6 +3,8 @@
  *   NN_T_AVX512VNNI  zmm, vpdpbusd; a tile is up to 14 pixels x 2 blocks of 16 channels
  *   NN_T_AVXVNNI     ymm, VEX vpdpbusd; 6 pixels x 1 block (2 ymm)
  *   NN_T_AVX2        ymm, u8 widened to s16 and vpmaddwd; 4 pixels x 1 block (2 ymm)
+ *   NN_T_AMX         AMX tiles (tdpbusd) accumulate, zmm requantise; 16 pixels x 2 blocks; with
+ *                    NN_T_AMX_EMU the tile operations are emulated in C (below)
  * and NN_T_NAME, the function's name.
  *
  * Each tile keeps MR x 2 int32 accumulators in registers, starting from the folded bias, and
@@ -25,9 +27,14 @@
 
 #include "kernels/x86/nn_s8_x86.h"
 
-#if defined(NN_T_AVX512VNNI)
+#if defined(NN_T_AVX512VNNI) || defined(NN_T_AMX)
+#define NN_T_ZMM 1 /* requantisation on AVX-512 */
 typedef __m512i vec;
+#if defined(NN_T_AMX)
+#define MR 16 /* the rows of a tile */
+#else
 #define MR 14 /* 28 accumulators + 2 weight vectors + the broadcast: 31 of the 32 zmm */
+#endif
 #define NBLK 2 /* blocks per tile */
 #define GROUP_BYTES 64
 #elif defined(NN_T_AVXVNNI) || defined(NN_T_AVX2)
@@ -41,7 +48,7 @@ typedef __m256i vec;
 #define GROUP_BYTES 64
 #endif
 #else
-#error "define NN_T_AVX512VNNI, NN_T_AVXVNNI or NN_T_AVX2"
+#error "define NN_T_AVX512VNNI, NN_T_AMX, NN_T_AVXVNNI or NN_T_AVX2"
 #endif
 
 #define INLINE static inline __attribute__((always_inline))
@@ -55,7 +62,7 @@ static inline int32_t load32(const uint8_t *p)
 
 /* ---- requantisation of one vector of accumulators ------------------------------------------ */
 
-#if defined(NN_T_AVX512VNNI)
+#if defined(NN_T_ZMM)
 INLINE __m512i requant(const int left, __m512i acc, __m512i mult, __m512i lsh, __m512i rsh,
                        __m512i mask, __m512i half, __m512i off, __m512i lo, __m512i hi)
 {
@@ -136,6 +143,161 @@ INLINE __m256i requant(const int left, __m256i acc, __m256i mult, __m256i lsh, _
 }
 #endif
 
+#if defined(NN_T_AMX)
+/* ---- AMX: five tile operations ---------------------------------------------------------------
+ * The tile kernel is written against LDTILECFG, TILEZERO, TILELOADD, TILESTORED and TDPBUSD
+ * (palette 1: 8 tiles of up to 16 rows x 64 bytes). Without NN_T_AMX_EMU they are the
+ * intrinsics; with it, C that follows the Intel SDM's pseudocode of each instruction, so that
+ * the packing, the tile configuration, the accumulation and the requantisation run bit for bit
+ * on any AVX-512 VNNI machine (nn_conv_packed_s8_16x32c4_amxemu__avx512vnni, tested against the
+ * reference kernels by tests/test_kernels_simd_s8.c) and only the instructions themselves wait
+ * for AMX hardware.
+ * Tiles: 0, 1 the accumulators (mr pixels x 16 channels of int32, one per block); 2 A (mr pixels
+ * x 64 bytes of K), 3, 4 the blocks' weights (16 groups of 4 K x 16 channels: 1024 contiguous
+ * bytes of the VNNI packing, [K/4][16][4], rows 64 bytes apart); 5, 6, 7 the same for the tail
+ * of a tap when cs is not a multiple of 64. */
+typedef struct amx_cfg {
+    uint8_t palette, start_row, reserved[14];
+    uint16_t colsb[16];
+    uint8_t rows[16];
+} amx_cfg; /* LDTILECFG's 64-byte operand */
+_Static_assert(sizeof(amx_cfg) == 64, "the tile configuration is 64 bytes");
+
+static void amx_config(amx_cfg *cfg, int mr, int tail)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->palette = 1;
+    for (int t = 0; t < 5; t++) {
+        cfg->rows[t] = (uint8_t)(t == 3 || t == 4 ? 16 : mr);
+        cfg->colsb[t] = 64;
+    }
+    if (tail) {
+        cfg->rows[5] = (uint8_t)mr;
+        cfg->colsb[5] = (uint16_t)tail;
+        cfg->rows[6] = cfg->rows[7] = (uint8_t)(tail / 4);
+        cfg->colsb[6] = cfg->colsb[7] = 64;
+    }
+}
+
+#if defined(NN_T_AMX_EMU)
+#include <assert.h>
+static _Thread_local struct {
+    uint8_t rows[8];
+    uint16_t colsb[8];
+    uint8_t t[8][16][64];
+} emu;
+
+/* LDTILECFG: the shapes, and every tile zeroed */
+static void emu_config(const amx_cfg *cfg)
+{
+    memset(&emu, 0, sizeof emu);
+    for (int i = 0; i < 8; i++) {
+        emu.rows[i] = cfg->rows[i];
+        emu.colsb[i] = cfg->colsb[i];
+    }
+}
+
+static void emu_zero(int t)
+{
+    memset(emu.t[t], 0, sizeof emu.t[t]);
+}
+
+/* TILELOADD: rows x colsb bytes, row r from base + r*stride; the rest of the tile zeroed */
+static void emu_load(int t, const void *base, size_t stride)
+{
+    emu_zero(t);
+    for (int r = 0; r < emu.rows[t]; r++)
+        memcpy(emu.t[t][r], (const uint8_t *)base + (size_t)r * stride, emu.colsb[t]);
+}
+
+static void emu_store(int t, void *base, size_t stride)
+{
+    for (int r = 0; r < emu.rows[t]; r++)
+        memcpy((uint8_t *)base + (size_t)r * stride, emu.t[t][r], emu.colsb[t]);
+}
+
+/* TDPBUSD: C[m][n] += sum over k of the 4 products u8 A[m][4k+i] x s8 B[k][4n+i], in 32 bits
+ * with wrap-around (not saturating) */
+static void emu_dpbusd(int tc, int ta, int tb)
+{
+    const int M = emu.rows[tc], N = emu.colsb[tc] / 4, K = emu.colsb[ta] / 4;
+    assert(emu.rows[ta] == M && emu.rows[tb] == K && emu.colsb[tb] == emu.colsb[tc]);
+    for (int m = 0; m < M; m++)
+        for (int n = 0; n < N; n++) {
+            uint32_t acc;
+            memcpy(&acc, &emu.t[tc][m][4 * n], 4);
+            for (int k = 0; k < K; k++) {
+                int32_t d = 0;
+                for (int i = 0; i < 4; i++)
+                    d +=
+                        (int32_t)emu.t[ta][m][4 * k + i] * (int32_t)(int8_t)emu.t[tb][k][4 * n + i];
+                acc += (uint32_t)d;
+            }
+            memcpy(&emu.t[tc][m][4 * n], &acc, 4);
+        }
+}
+#define T_CONFIG(cfg) emu_config(cfg)
+#define T_ZERO(t) emu_zero(t)
+#define T_LOAD(t, p, stride) emu_load(t, p, stride)
+#define T_STORE(t, p, stride) emu_store(t, p, stride)
+#define T_DPBUSD(c, a, b) emu_dpbusd(c, a, b)
+#define T_RELEASE() ((void)0)
+#else
+#define T_CONFIG(cfg) _tile_loadconfig(cfg)
+#define T_ZERO(t) _tile_zero(t)
+#define T_LOAD(t, p, stride) _tile_loadd(t, p, (long)(stride))
+#define T_STORE(t, p, stride) _tile_stored(t, p, (long)(stride))
+#define T_DPBUSD(c, a, b) _tile_dpbusd(c, a, b)
+#define T_RELEASE() _tile_release()
+#endif
+
+/* The tile's sums over all taps and K in tiles 0 and 1, then into zmm with the folded bias
+ * added (mod 2^32, as the reference adds it). The caller has loaded the configuration for mr. */
+INLINE void amx_accumulate(const int mr, const int nv, const pl_s8_conv *c, const uint8_t *a0,
+                           size_t astep, const uint8_t *wblk, size_t wblock_bytes,
+                           const int32_t *qv, __m512i acc[MR][2])
+{
+    int32_t ct[2][16][16] __attribute__((aligned(64)));
+    const int nfull = c->cs / 64, tail = c->cs % 64;
+    const uint8_t *wg = wblk;
+    T_ZERO(0);
+    T_ZERO(1);
+    for (int ky = 0; ky < c->k_h; ky++)
+        for (int kx = 0; kx < c->k_w; kx++) {
+            const uint8_t *ap = a0 + ((size_t)ky * (size_t)c->dilation_h * (size_t)c->a_w +
+                                      (size_t)kx * (size_t)c->dilation_w) *
+                                         (size_t)c->cs;
+            for (int k = 0; k < nfull; k++, ap += 64, wg += 16 * GROUP_BYTES) {
+                T_LOAD(2, ap, astep);
+                T_LOAD(3, wg, GROUP_BYTES);
+                T_DPBUSD(0, 2, 3);
+                if (nv > 1) {
+                    T_LOAD(4, wg + wblock_bytes, GROUP_BYTES);
+                    T_DPBUSD(1, 2, 4);
+                }
+            }
+            if (tail) {
+                T_LOAD(5, ap, astep);
+                T_LOAD(6, wg, GROUP_BYTES);
+                T_DPBUSD(0, 5, 6);
+                if (nv > 1) {
+                    T_LOAD(7, wg + wblock_bytes, GROUP_BYTES);
+                    T_DPBUSD(1, 5, 7);
+                }
+                wg += (size_t)(tail / 4) * GROUP_BYTES;
+            }
+        }
+    T_STORE(0, ct[0], 64);
+    if (nv > 1) T_STORE(1, ct[1], 64);
+    const __m512i b0 = _mm512_loadu_si512(qv), b1 = _mm512_loadu_si512(qv + (nv > 1 ? 16 : 0));
+#pragma GCC unroll 16
+    for (int m = 0; m < mr; m++) {
+        acc[m][0] = _mm512_add_epi32(_mm512_load_si512(ct[0][m]), b0);
+        acc[m][1] = nv > 1 ? _mm512_add_epi32(_mm512_load_si512(ct[1][m]), b1) : acc[m][0];
+    }
+}
+#endif
+
 /* ---- one tile --------------------------------------------------------------------------------
  * mr pixels (A at a0 + m*astep) x nv vectors of channels starting at block `blk`; writes the
  * bytes of channels [cb, ce) (relative to the tile's first channel) of pixel m at out[m] + c0. */
@@ -144,6 +306,9 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
                  int8_t *const *out, int c0, int cb, int ce)
 {
     vec acc[MR][2];
+#if defined(NN_T_AMX)
+    amx_accumulate(mr, nv, c, a0, astep, wblk, wblock_bytes, qv, acc);
+#else
 #if defined(NN_T_AVX512VNNI)
     const __m512i b0 = _mm512_loadu_si512(qv), b1 = _mm512_loadu_si512(qv + (nv > 1 ? 16 : 0));
 #pragma GCC unroll 14
@@ -210,9 +375,10 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
 #endif
             }
         }
+#endif /* NN_T_AMX */
 
     /* requantise and store */
-#if defined(NN_T_AVX512VNNI)
+#if defined(NN_T_ZMM)
     const __m512i off = _mm512_set1_epi32(c->output_offset + (c->out_xor & 0x80 ? 128 : 0)),
                   lo = _mm512_set1_epi32(c->act_min - c->output_offset),
                   hi = _mm512_set1_epi32(c->act_max - c->output_offset);
@@ -335,23 +501,31 @@ static void tile_any(int mr, int nv, const pl_s8_conv *c, const uint8_t *a0, siz
 {
     if (nv == 2) {
         switch (mr) {
-            NN_T_CASE(1, 2) NN_T_CASE(2, 2) NN_T_CASE(3, 2) NN_T_CASE(4, 2)
+            NN_T_CASE(1, 2)
+            NN_T_CASE(2, 2) NN_T_CASE(3, 2) NN_T_CASE(4, 2)
 #if MR > 4
-            NN_T_CASE(5, 2) NN_T_CASE(6, 2)
+                NN_T_CASE(5, 2) NN_T_CASE(6, 2)
 #endif
 #if MR > 6
-            NN_T_CASE(7, 2) NN_T_CASE(8, 2) NN_T_CASE(9, 2) NN_T_CASE(10, 2) NN_T_CASE(11, 2)
-            NN_T_CASE(12, 2) NN_T_CASE(13, 2) NN_T_CASE(14, 2)
+                    NN_T_CASE(7, 2) NN_T_CASE(8, 2) NN_T_CASE(9, 2) NN_T_CASE(10, 2)
+                        NN_T_CASE(11, 2) NN_T_CASE(12, 2) NN_T_CASE(13, 2) NN_T_CASE(14, 2)
 #endif
-        default: break;
+#if MR > 14
+                            NN_T_CASE(15, 2) NN_T_CASE(16, 2)
+#endif
+                                default : break;
         }
     } else {
 #if NBLK > 1
         switch (mr) {
-            NN_T_CASE(1, 1) NN_T_CASE(2, 1) NN_T_CASE(3, 1) NN_T_CASE(4, 1) NN_T_CASE(5, 1)
-            NN_T_CASE(6, 1) NN_T_CASE(7, 1) NN_T_CASE(8, 1) NN_T_CASE(9, 1) NN_T_CASE(10, 1)
-            NN_T_CASE(11, 1) NN_T_CASE(12, 1) NN_T_CASE(13, 1) NN_T_CASE(14, 1)
-        default: break;
+            NN_T_CASE(1, 1)
+            NN_T_CASE(2, 1) NN_T_CASE(3, 1) NN_T_CASE(4, 1) NN_T_CASE(5, 1) NN_T_CASE(6, 1)
+                NN_T_CASE(7, 1) NN_T_CASE(8, 1) NN_T_CASE(9, 1) NN_T_CASE(10, 1) NN_T_CASE(11, 1)
+                    NN_T_CASE(12, 1) NN_T_CASE(13, 1) NN_T_CASE(14, 1)
+#if MR > 14
+                        NN_T_CASE(15, 1) NN_T_CASE(16, 1)
+#endif
+                            default : break;
         }
 #endif
     }
@@ -369,11 +543,22 @@ void NN_T_NAME(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_str
     const int pitch = c->out_pitch ? c->out_pitch : c->out_w;
     const int blk_begin = oc_begin / PL_S8_OCB, blk_end = (oc_end + PL_S8_OCB - 1) / PL_S8_OCB;
     const uint8_t *w = c->w;
+#if defined(NN_T_AMX)
+    amx_cfg cfg;
+    int cfg_mr = -1; /* the tile height the loaded configuration is for */
+#endif
     for (int p = pix_begin; p < pix_end;) {
         const int ox = p % c->out_w, row = p / c->out_w, oy = row % c->out_h, b = row / c->out_h;
         int mr = pix_end - p;
         if (!dense && mr > c->out_w - ox) mr = c->out_w - ox; /* a k x k tile stays in its row */
         if (mr > MR) mr = MR;
+#if defined(NN_T_AMX)
+        if (mr != cfg_mr) {
+            amx_config(&cfg, mr, c->cs % 64);
+            T_CONFIG(&cfg);
+            cfg_mr = mr;
+        }
+#endif
         const uint8_t *a0 = a + (((size_t)b * (size_t)c->a_h + (size_t)oy * (size_t)c->stride_h) *
                                      (size_t)c->a_w +
                                  (size_t)ox * (size_t)c->stride_w) *
@@ -401,4 +586,7 @@ void NN_T_NAME(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_str
         }
         p += mr;
     }
+#if defined(NN_T_AMX)
+    if (cfg_mr >= 0) T_RELEASE();
+#endif
 }

@@ -60,5 +60,14 @@ void nn_conv_packed_s8_6x16c4__avxvnni(const pl_s8_conv *c, const uint8_t *a, in
                                 int oc_end);
 void nn_conv_packed_s8_4x16c4__avx2(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
                              int pix_begin, int pix_end, int oc_begin, int oc_end);
+/* AMX (the amx path, PARLIGHT_ISA=amx only): tdpbusd on tiles of 16 pixels x 32 channels, the
+ * VNNI packing (a block's [K/4][16][4] weights are its B tiles), AVX-512 requantisation; and the
+ * same kernel with the tile instructions emulated in C, for the tests on CPUs without AMX. */
+void nn_conv_packed_s8_16x32c4__amx(const pl_s8_conv *c, const uint8_t *a, int8_t *out,
+                                    int out_c_stride, int pix_begin, int pix_end, int oc_begin,
+                                    int oc_end);
+void nn_conv_packed_s8_16x32c4_amxemu__avx512vnni(const pl_s8_conv *c, const uint8_t *a,
+                                                  int8_t *out, int out_c_stride, int pix_begin,
+                                                  int pix_end, int oc_begin, int oc_end);
 
 #endif
