@@ -245,6 +245,27 @@ static int read_whole(const char *path, pl_plm *plm)
     return PL_OK;
 }
 
+/* A copy of n bytes at data, 64-byte aligned as the tensors need: the memory twin of read_whole.
+ */
+static int copy_whole(const void *data, size_t n, const char *path, pl_plm *plm)
+{
+    if (n < PL_PLM_HEADER_SIZE)
+        return pl_error(PL_E_FORMAT, "%s: %zu bytes, too short for a .plm header (64)", path, n);
+    size_t cap;
+    if (!pl_add_size(n, PL_PLM_ALIGN - 1, &cap))
+        return pl_error(PL_E_NOMEM, "%s: %zu bytes do not fit in memory", path, n);
+    cap -= cap % PL_PLM_ALIGN;
+    uint8_t *buf = aligned_alloc(PL_PLM_ALIGN, cap);
+    if (!buf) return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
+    memcpy(buf, data, n);
+    memset(buf + n, 0, cap - n);
+    plm->bytes = buf;
+    plm->n_bytes = n;
+    return PL_OK;
+}
+
+static int validate(const char *path, pl_plm *plm);
+
 int pl_plm_open(const char *path, pl_plm *plm)
 {
     memset(plm, 0, sizeof *plm);
@@ -252,7 +273,26 @@ int pl_plm_open(const char *path, pl_plm *plm)
     if (!path) return pl_error(PL_E_ARG, "model path is NULL");
     int rc = read_whole(path, plm);
     if (rc < 0) return rc;
+    return validate(path, plm);
+}
 
+int pl_plm_open_memory(const void *data, size_t size, pl_plm *plm)
+{
+    static const char name[] = "<memory>";
+    memset(plm, 0, sizeof *plm);
+    snprintf(plm->path, sizeof plm->path, "%s", name);
+    if (!data || size == 0)
+        return pl_error(PL_E_ARG, "%s: model buffer is %s", name, data ? "empty" : "NULL");
+    int rc = copy_whole(data, size, name, plm);
+    if (rc < 0) return rc;
+    return validate(name, plm);
+}
+
+/* Everything the format promises, checked on the owned copy (plm->bytes); closes plm on failure.
+ */
+static int validate(const char *path, pl_plm *plm)
+{
+    int rc;
     const uint8_t *h = plm->bytes;
     if (memcmp(h, PL_PLM_MAGIC "\0", 8)) {
         rc = pl_error(PL_E_FORMAT, "%s: not a parlight model (bad magic)", path);
@@ -273,8 +313,9 @@ int pl_plm_open(const char *path, pl_plm *plm)
         goto fail;
     }
     if (file_size != plm->n_bytes) {
-        rc = pl_error(PL_E_FORMAT, "%s: header says %llu bytes, file has %zu (truncated?)", path,
-                      (unsigned long long)file_size, plm->n_bytes);
+        rc = pl_error(PL_E_FORMAT, "%s: header says %llu bytes, %s has %zu (truncated?)", path,
+                      (unsigned long long)file_size, strcmp(path, "<memory>") ? "file" : "buffer",
+                      plm->n_bytes);
         goto fail;
     }
     if (meta_offset != PL_PLM_HEADER_SIZE || meta_size < 1 || meta_size > PL_PLM_MAX_META ||
