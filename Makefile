@@ -1,6 +1,9 @@
 # parlight — one build for the library, the CLI and the tests.
 #
 #   make              build build/parlight, build/libparlight.a and build/libparlight.so.*
+#   make install      install the CLI, the libraries, the header, parlight.pc, the plugins, the
+#                     man pages and the models under PREFIX (default /usr/local), staged in
+#                     DESTDIR when set (docs/LIBRARY.md)
 #   make demo         install what is missing, build, run the shipped model on the sample frames
 #   make test         install what is missing, build, run the whole suite (tests/run.sh)
 #   make bench        parlight vs PyTorch and ONNX Runtime, same weights (tools/bench/run.sh)
@@ -201,7 +204,8 @@ build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 	@mkdir -p $(dir $@)
 	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force
 
-.PHONY: all deps demo test tests clean format-check test-camera bench fuzz fuzz-build FORCE
+.PHONY: all deps demo test tests clean format-check test-camera bench fuzz fuzz-build FORCE \
+        install uninstall
 all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO) $(SHLIB_ALL)
 
 # The optional libraries this build has, one word each (tests/run.sh skips the tests that need
@@ -345,6 +349,61 @@ bench:
 	@tools/install-deps.sh
 	@$(MAKE) --no-print-directory $(CLI) build/models/seeded-n3.plm
 	@BUILD=$(BUILD) tools/bench/run.sh
+
+# ---- install (docs/LIBRARY.md) ------------------------------------------------------------------
+# GNU layout under PREFIX, every path staged under DESTDIR when set (packaging): nothing is
+# written outside $(DESTDIR)$(PREFIX). The plugins go to LIBDIR/parlight, where both the CLI
+# (BINDIR/../lib/parlight) and libparlight.so (its own folder + /parlight) look for them; the
+# models to DATADIR/parlight/models. parlight.pc's prefix is PREFIX, not DESTDIR.
+PREFIX     ?= /usr/local
+BINDIR     ?= $(PREFIX)/bin
+LIBDIR     ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+DATADIR    ?= $(PREFIX)/share
+MANDIR     ?= $(DATADIR)/man
+INSTALL    ?= install
+# What a static link needs besides libparlight.a (pkg-config --static --libs parlight).
+PC_LIBS_PRIVATE := $(strip $(CORE_LIBS) -lstdc++ -lm -pthread)
+MODEL_FILES := $(wildcard models/*.plm models/*.json) models/MODEL_CARD.md
+
+# rewritten only when its text changes (PREFIX, LIBDIR, ... are part of it)
+$(BUILD)/parlight.pc: FORCE
+	@mkdir -p $(dir $@)
+	@printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$(LIBDIR)' 'includedir=$(INCLUDEDIR)' \
+	    'modeldir=$(DATADIR)/parlight/models' '' 'Name: parlight' \
+	    'Description: indoor lighting estimation from one camera frame (N lights + ambient)' \
+	    'Version: $(PL_VERSION)' 'Cflags: -I$${includedir}' 'Libs: -L$${libdir} -lparlight' \
+	    'Libs.private: $(PC_LIBS_PRIVATE)' >$@.tmp
+	@cmp -s $@.tmp $@ && rm -f $@.tmp || mv -f $@.tmp $@
+
+install: $(CLI) $(LIB) $(SHLIB_ALL) $(PLUGIN_SO) $(BUILD)/parlight.pc
+	$(INSTALL) -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR) \
+	    $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man3 $(DESTDIR)$(DATADIR)/parlight/models \
+	    $(DESTDIR)$(DATADIR)/doc/parlight
+	$(INSTALL) -m 755 $(CLI) $(DESTDIR)$(BINDIR)/parlight
+	$(INSTALL) -m 644 $(LIB) $(DESTDIR)$(LIBDIR)/libparlight.a
+ifeq ($(SHARED),1)
+	$(INSTALL) -m 755 $(SHLIB) $(DESTDIR)$(LIBDIR)/$(notdir $(SHLIB))
+	ln -sf $(notdir $(SHLIB)) $(DESTDIR)$(LIBDIR)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(LIBDIR)/libparlight.so
+endif
+ifneq ($(PLUGIN_SO),)
+	$(INSTALL) -d $(DESTDIR)$(LIBDIR)/parlight
+	$(INSTALL) -m 755 $(PLUGIN_SO) $(DESTDIR)$(LIBDIR)/parlight/
+endif
+	$(INSTALL) -m 644 include/parlight.h $(DESTDIR)$(INCLUDEDIR)/parlight.h
+	$(INSTALL) -m 644 $(BUILD)/parlight.pc $(DESTDIR)$(LIBDIR)/pkgconfig/parlight.pc
+	$(INSTALL) -m 644 docs/man/parlight.1 $(DESTDIR)$(MANDIR)/man1/parlight.1
+	$(INSTALL) -m 644 docs/man/parlight.3 $(DESTDIR)$(MANDIR)/man3/parlight.3
+	$(INSTALL) -m 644 $(MODEL_FILES) $(DESTDIR)$(DATADIR)/parlight/models/
+	$(INSTALL) -m 644 LICENSE $(DESTDIR)$(DATADIR)/doc/parlight/LICENSE
+
+uninstall:
+	rm -f $(DESTDIR)$(BINDIR)/parlight $(DESTDIR)$(LIBDIR)/libparlight.a \
+	    $(DESTDIR)$(LIBDIR)/libparlight.so* $(DESTDIR)$(INCLUDEDIR)/parlight.h \
+	    $(DESTDIR)$(LIBDIR)/pkgconfig/parlight.pc $(DESTDIR)$(MANDIR)/man1/parlight.1 \
+	    $(DESTDIR)$(MANDIR)/man3/parlight.3
+	rm -rf $(DESTDIR)$(LIBDIR)/parlight $(DESTDIR)$(DATADIR)/parlight $(DESTDIR)$(DATADIR)/doc/parlight
 
 format-check:
 	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror
