@@ -191,32 +191,42 @@ static int check_entry(pl_plm *plm, uint32_t i, const uint8_t *e, uint64_t data_
     return PL_OK;
 }
 
-/* Reads the whole file into memory this process owns (64-byte aligned, as the tensors need), so
- * that nothing done to the file afterwards (truncated, overwritten, replaced) reaches a loaded
- * model: a mapping of it would fault (SIGBUS) on truncation and show overwritten bytes. A file
- * that changes while it is read fails here or at the checksum. */
+/* The buffer a model's n bytes live in: 64-byte aligned as the tensors need, the tail past n
+ * zeroed; *buf is NULL with the error returned when the size does not fit or it cannot be had. */
+static int alloc_bytes(const char *path, uint64_t n, uint8_t **buf)
+{
+    *buf = NULL;
+    if (n < PL_PLM_HEADER_SIZE)
+        return pl_error(PL_E_FORMAT, "%s: %llu bytes, too short for a .plm header (64)", path,
+                        (unsigned long long)n);
+    size_t cap;
+    if (n > SIZE_MAX || !pl_add_size((size_t)n, PL_PLM_ALIGN - 1, &cap))
+        return pl_error(PL_E_NOMEM, "%s: %llu bytes do not fit in memory", path,
+                        (unsigned long long)n);
+    cap -= cap % PL_PLM_ALIGN; /* aligned_alloc wants a multiple of the alignment */
+    *buf = aligned_alloc(PL_PLM_ALIGN, cap);
+    if (!*buf)
+        return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
+    memset(*buf + n, 0, cap - (size_t)n);
+    return PL_OK;
+}
+
+/* Reads the whole file into memory this process owns, so that nothing done to the file
+ * afterwards (truncated, overwritten, replaced) reaches a loaded model: a mapping of it would
+ * fault (SIGBUS) on truncation and show overwritten bytes. A file that changes while it is read
+ * fails here or at the checksum. */
 static int read_whole(const char *path, pl_plm *plm)
 {
     int fd;
     int64_t size;
     int rc = pl_file_open_regular(path, "model", &fd, &size);
     if (rc < 0) return rc;
-    if (size < (int64_t)PL_PLM_HEADER_SIZE) {
+    uint8_t *buf;
+    if ((rc = alloc_bytes(path, (uint64_t)size, &buf)) < 0) {
         close(fd);
-        return pl_error(PL_E_FORMAT, "%s: %lld bytes, too short for a .plm header (64)", path,
-                        (long long)size);
+        return rc;
     }
-    size_t n = (size_t)size, cap;
-    if ((uint64_t)size > SIZE_MAX || !pl_add_size(n, PL_PLM_ALIGN - 1, &cap)) {
-        close(fd);
-        return pl_error(PL_E_NOMEM, "%s: %lld bytes do not fit in memory", path, (long long)size);
-    }
-    cap -= cap % PL_PLM_ALIGN; /* aligned_alloc wants a multiple of the alignment */
-    uint8_t *buf = aligned_alloc(PL_PLM_ALIGN, cap);
-    if (!buf) {
-        close(fd);
-        return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
-    }
+    const size_t n = (size_t)size;
     size_t got = 0;
     while (got < n) {
         ssize_t r = read(fd, buf + got, n - got);
@@ -239,26 +249,18 @@ static int read_whole(const char *path, pl_plm *plm)
         free(buf);
         return rc;
     }
-    memset(buf + n, 0, cap - n);
     plm->bytes = buf;
     plm->n_bytes = n;
     return PL_OK;
 }
 
-/* A copy of n bytes at data, 64-byte aligned as the tensors need: the memory twin of read_whole.
- */
+/* The memory twin of read_whole: a copy of the caller's n bytes. */
 static int copy_whole(const void *data, size_t n, const char *path, pl_plm *plm)
 {
-    if (n < PL_PLM_HEADER_SIZE)
-        return pl_error(PL_E_FORMAT, "%s: %zu bytes, too short for a .plm header (64)", path, n);
-    size_t cap;
-    if (!pl_add_size(n, PL_PLM_ALIGN - 1, &cap))
-        return pl_error(PL_E_NOMEM, "%s: %zu bytes do not fit in memory", path, n);
-    cap -= cap % PL_PLM_ALIGN;
-    uint8_t *buf = aligned_alloc(PL_PLM_ALIGN, cap);
-    if (!buf) return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
+    uint8_t *buf;
+    int rc = alloc_bytes(path, n, &buf);
+    if (rc < 0) return rc;
     memcpy(buf, data, n);
-    memset(buf + n, 0, cap - n);
     plm->bytes = buf;
     plm->n_bytes = n;
     return PL_OK;
