@@ -38,9 +38,10 @@
  * count. The functions without a model (lighting maths, JSON, version, image loading) are
  * reentrant, and the plugins that image loading may need are loaded once, under a lock.
  *
- * Linking: `pkg-config --cflags --libs parlight` (libparlight.so.0) or `pkg-config --static
- * --cflags --libs parlight` (libparlight.a); docs/LIBRARY.md. Plugins (the OpenCV and libcamera
- * sides) are found beside the library, in LIBDIR/parlight, or in $PARLIGHT_PLUGIN_DIR.
+ * Linking: `pkg-config --cflags --libs parlight` links libparlight.so.0; a static link takes
+ * libparlight.a and `pkg-config --static --libs parlight`'s other libraries (docs/LIBRARY.md).
+ * The plugins (OpenCV: BMP/TIFF/... images; libcamera) are looked for in $PARLIGHT_PLUGIN_DIR,
+ * beside the executable and in parlight/ beside libparlight.so (where make install puts them).
  *
  * Coordinates (camera frame, right-handed, OpenGL/WebXR): x right, y up, the camera looks along
  * -z. A light's direction points from the camera toward the light. Distances in metres, angular
