@@ -184,8 +184,10 @@ CLI      := $(BUILD)/parlight
 # The shared library (docs/LIBRARY.md): the same sources compiled again with -fPIC and
 # -fvisibility=hidden into $(BUILD)/pic/ (the static objects, the CLI and the tests are not
 # touched), exporting only what include/parlight.h marks PL_API (include/parlight.map: pl_*
-# names only). SONAME libparlight.so.MAJOR, MAJOR being PARLIGHT_VERSION_MAJOR. SHARED=0 skips it.
-SHARED ?= 1
+# names only). SONAME libparlight.so.MAJOR, MAJOR being PARLIGHT_VERSION_MAJOR. SHARED=0 skips it;
+# SAN=1 does by default (no test loads a sanitized libparlight.so: an app without the sanitizer
+# runtime cannot, and it would double the sanitizer build), SHARED=1 SAN=1 builds it anyway.
+SHARED ?= $(if $(filter 1,$(SAN)),0,1)
 PL_VERSION := $(shell sed -n 's/^\#define PARLIGHT_VERSION "\(.*\)"/\1/p' include/parlight.h)
 PL_MAJOR   := $(firstword $(subst ., ,$(PL_VERSION)))
 SONAME     := libparlight.so.$(PL_MAJOR)
