@@ -1,6 +1,9 @@
 # parlight — one build for the library, the CLI and the tests.
 #
-#   make              build build/parlight (and build/libparlight.a)
+#   make              build build/parlight, build/libparlight.a and build/libparlight.so.*
+#   make install      install the CLI, the libraries, the header, parlight.pc, the plugins, the
+#                     man pages and the models under PREFIX (default /usr/local), staged in
+#                     DESTDIR when set (docs/LIBRARY.md)
 #   make demo         install what is missing, build, run the shipped model on the sample frames
 #   make test         install what is missing, build, run the whole suite (tests/run.sh)
 #   make bench        parlight vs PyTorch and ONNX Runtime, same weights (tools/bench/run.sh)
@@ -120,7 +123,7 @@ PLUGIN_SO := $(if $(PLUGIN_OPENCV_SRC),$(BUILD)/parlight-opencv.so) \
              $(if $(PLUGIN_LIBCAMERA_SRC),$(BUILD)/parlight-libcamera.so)
 CORE_LIBS := $(if $(PLUGIN_OPENCV_SRC),,$(OPENCV_LIBS)) $(EXR_LIBS) \
              $(if $(PLUGIN_LIBCAMERA_SRC),,$(LIBCAMERA_LIBS)) $(CODEC_LIBS) $(NET_LIBS) \
-             $(if $(PLUGIN_SO),-rdynamic -ldl)
+             $(if $(PLUGIN_SO),-ldl)
 
 WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wmissing-prototypes \
             -Wformat=2 -Wundef
@@ -132,7 +135,9 @@ CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
 LDFLAGS  += $(SAN_FLAGS)
 LDLIBS   += $(CORE_LIBS) -lstdc++ -lm -pthread
 
-LIB_C   := $(sort $(wildcard core/*.c model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c))
+# port/plugin_guest.c is linked into each plugin, never into the library (port/plugin.h).
+LIB_C   := $(filter-out port/plugin_guest.c,\
+             $(sort $(wildcard core/*.c model/*.c kernels/*.c kernels/ref/*.c quant/*.c light/*.c port/*.c)))
 
 # SIMD kernels: kernels/x86/ joins x86-64 builds, kernels/arm/ AArch64 builds. A file's ISA
 # flags come from its name, which says the instructions it needs (nn_fc_f32__avx512f.c,
@@ -176,6 +181,20 @@ REPLAY_BIN := $(FUZZ_C:tests/fuzz/%.c=$(BUILD)/tests/fuzz/%)
 LIB      := $(BUILD)/libparlight.a
 CLI      := $(BUILD)/parlight
 
+# The shared library (docs/LIBRARY.md): the same sources compiled again with -fPIC and
+# -fvisibility=hidden into $(BUILD)/pic/ (the static objects, the CLI and the tests are not
+# touched), exporting only what include/parlight.h marks PL_API (include/parlight.map: pl_*
+# names only). SONAME libparlight.so.MAJOR, MAJOR being PARLIGHT_VERSION_MAJOR. SHARED=0 skips it;
+# SAN=1 does by default (no test loads a sanitized libparlight.so: an app without the sanitizer
+# runtime cannot, and it would double the sanitizer build), SHARED=1 SAN=1 builds it anyway.
+SHARED ?= $(if $(filter 1,$(SAN)),0,1)
+PL_VERSION := $(shell sed -n 's/^\#define PARLIGHT_VERSION "\(.*\)"/\1/p' include/parlight.h)
+PL_MAJOR   := $(firstword $(subst ., ,$(PL_VERSION)))
+SONAME     := libparlight.so.$(PL_MAJOR)
+SHLIB      := $(BUILD)/libparlight.so.$(PL_VERSION)
+LIB_PIC_OBJ := $(LIB_C:%.c=$(BUILD)/pic/%.o) $(LIB_CXX:%.cpp=$(BUILD)/pic/%.o)
+SHLIB_ALL  := $(if $(filter 1,$(SHARED)),$(SHLIB) $(BUILD)/$(SONAME) $(BUILD)/libparlight.so)
+
 # Models exported from seeded random weights (tools/export.py), for the tests and, until a
 # trained model ships, the demo. Board-independent, so they live in build/models/.
 # The camera rig's guests run a 96x128 one: the same network, 4x fewer MACs under TCG.
@@ -187,8 +206,9 @@ build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 	@mkdir -p $(dir $@)
 	/usr/bin/python3 tools/export.py --n-lights $* --seed 1 --out $@ --force
 
-.PHONY: all deps demo test tests clean format-check test-camera bench fuzz fuzz-build FORCE
-all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO)
+.PHONY: all deps demo test tests clean format-check test-camera bench fuzz fuzz-build FORCE \
+        install uninstall
+all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO) $(SHLIB_ALL)
 
 # The optional libraries this build has, one word each (tests/run.sh skips the tests that need
 # a missing one); rewritten only when the list changes.
@@ -202,7 +222,7 @@ deps:
 	@BOARD=$(BOARD) tools/install-deps.sh
 
 # Kernels are where the time goes: let the compiler vectorise their inner loops fully.
-$(BUILD)/obj/kernels/%.o: OPT := -O3 -g
+$(BUILD)/obj/kernels/%.o $(BUILD)/pic/kernels/%.o: OPT := -O3 -g
 
 # Test programs may need a workaround on a board's compiler (boards/*.mk, BOARD_TEST_CFLAGS).
 $(BUILD)/obj/tests/%.o: CFLAGS += $(BOARD_TEST_CFLAGS)
@@ -212,6 +232,8 @@ $(BUILD)/obj/port/png_codec.o $(BUILD)/obj/port/jpeg_codec.o: CFLAGS += $(CODEC_
 $(BUILD)/obj/port/sink_ws.o $(BUILD)/obj/port/sink_mqtt.o: CFLAGS += $(NET_CFLAGS)
 # parlight view serves the viewer page from the source tree (--www overrides it).
 $(BUILD)/obj/app/cmd_view.o: CFLAGS += -DPL_VIEWER_DIR='"$(CURDIR)/app/viewer"'
+$(BUILD)/pic/port/png_codec.o $(BUILD)/pic/port/jpeg_codec.o: CFLAGS += $(CODEC_CFLAGS)
+$(BUILD)/pic/port/sink_ws.o $(BUILD)/pic/port/sink_mqtt.o: CFLAGS += $(NET_CFLAGS)
 
 $(BUILD)/obj/%.o: %.c $(BUILD)/features
 	@mkdir -p $(dir $@)
@@ -221,17 +243,43 @@ $(BUILD)/obj/%.o: %.cpp $(BUILD)/features
 	@mkdir -p $(dir $@)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MMD -MP -c $< -o $@
 
-# Plugins: position-independent objects, linked against their library; the core's functions
-# they call (pl_error, ...) come from the executable (-rdynamic), their own calls stay inside.
+$(BUILD)/pic/%.o: %.c $(BUILD)/features
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS) $(CFLAGS) $(ISA_FLAGS_$(call isa_of,$<)) -fPIC -fvisibility=hidden \
+	    -MMD -MP -c $< -o $@
+
+$(BUILD)/pic/%.o: %.cpp $(BUILD)/features
+	@mkdir -p $(dir $@)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -fPIC -fvisibility=hidden -fvisibility-inlines-hidden \
+	    -MMD -MP -c $< -o $@
+
+# Linked by the C++ driver (port/exr_io.cpp needs its runtime); --no-undefined: every symbol the
+# library uses is in it or in the libraries named here.
+$(SHLIB): $(LIB_PIC_OBJ) include/parlight.map
+	$(CXX) -shared -Wl,-soname,$(SONAME) -Wl,--version-script=include/parlight.map \
+	    -Wl,--no-undefined $(LDFLAGS) -o $@ $(LIB_PIC_OBJ) $(CORE_LIBS) -lm -pthread
+$(BUILD)/$(SONAME): $(SHLIB)
+	ln -sf $(notdir $<) $@
+$(BUILD)/libparlight.so: $(BUILD)/$(SONAME)
+	ln -sf $(notdir $<) $@
+
+# Plugins: position-independent objects, linked against their library. They call the core
+# through the table the loader hands them (port/plugin.h, port/plugin_guest.c), so they resolve
+# nothing from whatever loads them: the static CLI and apps linked either way load the same file.
 $(BUILD)/obj-pic/%.o: %.cpp $(BUILD)/features
 	@mkdir -p $(dir $@)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -fPIC -MMD -MP -c $< -o $@
 
-$(BUILD)/parlight-opencv.so: $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.o)
-	$(CXX) -shared -Wl,-Bsymbolic $(LDFLAGS) -o $@ $^ $(OPENCV_LIBS) -lm -pthread
+$(BUILD)/obj-pic/%.o: %.c $(BUILD)/features
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -fPIC -MMD -MP -c $< -o $@
 
-$(BUILD)/parlight-libcamera.so: $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.o)
-	$(CXX) -shared -Wl,-Bsymbolic $(LDFLAGS) -o $@ $^ $(LIBCAMERA_LIBS) -lm -pthread
+PLUGIN_GUEST := $(BUILD)/obj-pic/port/plugin_guest.o
+$(BUILD)/parlight-opencv.so: $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.o) $(PLUGIN_GUEST)
+	$(CXX) -shared -Wl,-Bsymbolic -Wl,--no-undefined $(LDFLAGS) -o $@ $^ $(OPENCV_LIBS) -lm -pthread
+
+$(BUILD)/parlight-libcamera.so: $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.o) $(PLUGIN_GUEST)
+	$(CXX) -shared -Wl,-Bsymbolic -Wl,--no-undefined $(LDFLAGS) -o $@ $^ $(LIBCAMERA_LIBS) -lm -pthread
 
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
@@ -313,6 +361,60 @@ bench:
 bench-arm:
 	@BOARD=rpi5 tools/install-deps.sh
 	@tools/bench/arm/run.sh
+# ---- install (docs/LIBRARY.md) ------------------------------------------------------------------
+# GNU layout under PREFIX, every path staged under DESTDIR when set (packaging): nothing is
+# written outside $(DESTDIR)$(PREFIX). The plugins go to LIBDIR/parlight, where both the CLI
+# (BINDIR/../lib/parlight) and libparlight.so (its own folder + /parlight) look for them; the
+# models to DATADIR/parlight/models. parlight.pc's prefix is PREFIX, not DESTDIR.
+PREFIX     ?= /usr/local
+BINDIR     ?= $(PREFIX)/bin
+LIBDIR     ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+DATADIR    ?= $(PREFIX)/share
+MANDIR     ?= $(DATADIR)/man
+INSTALL    ?= install
+# What a static link needs besides libparlight.a (pkg-config --static --libs parlight).
+PC_LIBS_PRIVATE := $(strip $(CORE_LIBS) -lstdc++ -lm -pthread)
+MODEL_FILES := $(wildcard models/*.plm models/*.json) models/MODEL_CARD.md
+
+# rewritten only when its text changes (PREFIX, LIBDIR, ... are part of it)
+$(BUILD)/parlight.pc: FORCE
+	@mkdir -p $(dir $@)
+	@printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$(LIBDIR)' 'includedir=$(INCLUDEDIR)' \
+	    'modeldir=$(DATADIR)/parlight/models' '' 'Name: parlight' \
+	    'Description: indoor lighting estimation from one camera frame (N lights + ambient)' \
+	    'Version: $(PL_VERSION)' 'Cflags: -I$${includedir}' 'Libs: -L$${libdir} -lparlight' \
+	    'Libs.private: $(PC_LIBS_PRIVATE)' >$@.tmp
+	@cmp -s $@.tmp $@ && rm -f $@.tmp || mv -f $@.tmp $@
+
+install: $(CLI) $(LIB) $(SHLIB_ALL) $(PLUGIN_SO) $(BUILD)/parlight.pc
+	$(INSTALL) -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR) \
+	    $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(MANDIR)/man3 $(DESTDIR)$(DATADIR)/parlight/models \
+	    $(DESTDIR)$(DATADIR)/doc/parlight
+	$(INSTALL) -m 755 $(CLI) $(DESTDIR)$(BINDIR)/parlight
+	$(INSTALL) -m 644 $(LIB) $(DESTDIR)$(LIBDIR)/libparlight.a
+ifeq ($(SHARED),1)
+	$(INSTALL) -m 755 $(SHLIB) $(DESTDIR)$(LIBDIR)/$(notdir $(SHLIB))
+	ln -sf $(notdir $(SHLIB)) $(DESTDIR)$(LIBDIR)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(LIBDIR)/libparlight.so
+endif
+ifneq ($(PLUGIN_SO),)
+	$(INSTALL) -d $(DESTDIR)$(LIBDIR)/parlight
+	$(INSTALL) -m 755 $(PLUGIN_SO) $(DESTDIR)$(LIBDIR)/parlight/
+endif
+	$(INSTALL) -m 644 include/parlight.h $(DESTDIR)$(INCLUDEDIR)/parlight.h
+	$(INSTALL) -m 644 $(BUILD)/parlight.pc $(DESTDIR)$(LIBDIR)/pkgconfig/parlight.pc
+	$(INSTALL) -m 644 docs/man/parlight.1 $(DESTDIR)$(MANDIR)/man1/parlight.1
+	$(INSTALL) -m 644 docs/man/parlight.3 $(DESTDIR)$(MANDIR)/man3/parlight.3
+	$(INSTALL) -m 644 $(MODEL_FILES) $(DESTDIR)$(DATADIR)/parlight/models/
+	$(INSTALL) -m 644 LICENSE $(DESTDIR)$(DATADIR)/doc/parlight/LICENSE
+
+uninstall:
+	rm -f $(DESTDIR)$(BINDIR)/parlight $(DESTDIR)$(LIBDIR)/libparlight.a \
+	    $(DESTDIR)$(LIBDIR)/libparlight.so* $(DESTDIR)$(INCLUDEDIR)/parlight.h \
+	    $(DESTDIR)$(LIBDIR)/pkgconfig/parlight.pc $(DESTDIR)$(MANDIR)/man1/parlight.1 \
+	    $(DESTDIR)$(MANDIR)/man3/parlight.3
+	rm -rf $(DESTDIR)$(LIBDIR)/parlight $(DESTDIR)$(DATADIR)/parlight $(DESTDIR)$(DATADIR)/doc/parlight
 
 format-check:
 	@git diff --name-only --diff-filter=AM HEAD -- '*.c' '*.h' '*.cpp' | xargs -r clang-format --dry-run -Werror
@@ -320,6 +422,7 @@ format-check:
 clean:
 	rm -rf build build-san
 
--include $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.d) $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.d)
+-include $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.d) $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.d) \
+         $(PLUGIN_GUEST:.o=.d) $(LIB_PIC_OBJ:.o=.d)
 -include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d) \
          $(FUZZ_C:%.c=$(BUILD)/obj/%.d) $(BUILD)/obj/tests/fuzz/replay.d

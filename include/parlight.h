@@ -24,7 +24,24 @@
  *
  * Errors: every function that can fail returns a negative pl_status and leaves a message naming
  * the problem (file, offset, field, expected vs found) in pl_last_error(), which is per thread.
- * The library never prints and never exits.
+ * The library never prints and never exits. Every input from outside (a file, a buffer, a frame,
+ * a size) is checked where it enters: a bad one is an error, never a crash.
+ *
+ * Ownership: pointers passed in are borrowed for the call only; the library keeps none of them
+ * (pl_model_load_memory copies its bytes). What the library allocates is freed with the matching
+ * function: a pl_model with pl_model_free, a pl_image_load_rgb8 buffer with pl_free. Output
+ * arrays (SH, maps, JSON text) are the caller's, sized as each function says.
+ *
+ * Threads: a pl_model is used by one thread at a time (estimates, pl_model_set_*): give each
+ * thread that estimates its own model. Different models are independent. A model may run its
+ * estimates on worker threads of its own (pl_model_set_threads); results do not depend on their
+ * count. The functions without a model (lighting maths, JSON, version, image loading) are
+ * reentrant, and the plugins that image loading may need are loaded once, under a lock.
+ *
+ * Linking: `pkg-config --cflags --libs parlight` links libparlight.so.0; a static link takes
+ * libparlight.a and `pkg-config --static --libs parlight`'s other libraries (docs/LIBRARY.md).
+ * The plugins (OpenCV: BMP/TIFF/... images; libcamera) are looked for in $PARLIGHT_PLUGIN_DIR,
+ * beside the executable and in parlight/ beside libparlight.so (where make install puts them).
  *
  * Coordinates (camera frame, right-handed, OpenGL/WebXR): x right, y up, the camera looks along
  * -z. A light's direction points from the camera toward the light. Distances in metres, angular
@@ -40,6 +57,14 @@
 extern "C" {
 #endif
 
+/* Marks the public API: libparlight.so is built with -fvisibility=hidden and exports only what
+ * carries it (and only pl_* names; `nm -D --defined-only libparlight.so.0`). */
+#if defined(__GNUC__) || defined(__clang__)
+#define PL_API __attribute__((visibility("default")))
+#else
+#define PL_API
+#endif
+
 /* Version of this library: PARLIGHT_VERSION (a string) for what a program was compiled
  * against, pl_version() for what it runs with. The major number changes when the API or the ABI
  * does (libparlight.so.MAJOR). */
@@ -47,7 +72,7 @@ extern "C" {
 #define PARLIGHT_VERSION_MINOR 5
 #define PARLIGHT_VERSION_PATCH 0
 #define PARLIGHT_VERSION "0.5.0"
-const char *pl_version(void);
+PL_API const char *pl_version(void);
 
 typedef enum pl_status {
     PL_OK = 0,
@@ -63,9 +88,9 @@ typedef enum pl_status {
 } pl_status;
 
 /* Short name of a status ("PL_E_FORMAT"). */
-const char *pl_status_name(int status);
+PL_API const char *pl_status_name(int status);
 /* Message of the last failure on this thread ("" when none). Valid until the next failure. */
-const char *pl_last_error(void);
+PL_API const char *pl_last_error(void);
 
 /* Most lights a model or a lights file may carry. */
 #define PL_MAX_LIGHTS 16
@@ -94,8 +119,14 @@ typedef struct pl_model pl_model;
  * (the file can then be changed or removed without effect on the model), and plans the one
  * arena that every later pl_estimate_* call runs in. Nothing is allocated per frame afterwards.
  * A path that is not a regular file (a FIFO, a device, a directory) is refused without blocking. */
-int pl_model_load(const char *path, pl_model **out);
-void pl_model_free(pl_model *model);
+PL_API int pl_model_load(const char *path, pl_model **out);
+/* The same from the bytes of a .plm file already in memory (an asset bundle, a download): they
+ * are copied into memory the model owns, so the caller may free or reuse data as soon as this
+ * returns. Validated exactly as a file is (same checks, same CRC-32); messages name the model
+ * "<memory>". A NULL or empty buffer is PL_E_ARG; a truncated or corrupt one PL_E_FORMAT, a
+ * well-formed model of another architecture PL_E_MODEL. */
+PL_API int pl_model_load_memory(const void *data, size_t size, pl_model **out);
+PL_API void pl_model_free(pl_model *model);
 
 typedef struct pl_model_info {
     const char *arch;        /* "densenet121-parametric" */
@@ -110,18 +141,18 @@ typedef struct pl_model_info {
 } pl_model_info;
 
 /* Fills *info; the strings belong to the model. */
-int pl_model_get_info(const pl_model *model, pl_model_info *info);
+PL_API int pl_model_get_info(const pl_model *model, pl_model_info *info);
 
 /* Worker threads for the next estimates (1 = the calling thread only). Results do not depend
  * on the count. */
-int pl_model_set_threads(pl_model *model, int n_threads);
+PL_API int pl_model_set_threads(pl_model *model, int n_threads);
 
 /* Intensity anchor (docs/LIGHTING.md): each estimate's light colours and ambient are scaled by
  * 2^(w ev + b), where ev = log2(the frame's mean linear luminance, pixels linearised as
  * (v/255)^gamma, over the lighting's mean luminance over the sphere). w = 0 keeps the network's
  * intensity, w = 1 takes the frame's; b shifts by stops. The file's `intensity_anchor` metadata
  * sets it at load (docs/FORMAT.md); w = b = 0 turns it off. w in 0..1, b in -8..8, gamma 1..3. */
-int pl_model_set_anchor(pl_model *model, double w, double b, double gamma);
+PL_API int pl_model_set_anchor(pl_model *model, double w, double b, double gamma);
 
 /* ---- estimation -------------------------------------------------------------------------- */
 
@@ -135,29 +166,68 @@ typedef struct pl_timing {
  * size of at least 8 x 8. The frame is centre-cropped to 4:3 (the model's aspect) and resized
  * to the model input with an area filter. Not reentrant for one model: use one model per thread
  * that calls it. */
-int pl_estimate_rgb8(pl_model *model, const uint8_t *rgb, int width, int height, size_t stride,
-                     pl_lighting *out, pl_timing *timing);
+PL_API int pl_estimate_rgb8(pl_model *model, const uint8_t *rgb, int width, int height,
+                            size_t stride, pl_lighting *out, pl_timing *timing);
+
+/* YCbCr encoding of a camera frame: the matrix (BT.601 or BT.709) and the range (limited 16..235
+ * or full 0..255). V4L2's ycbcr_enc and quantization fields and libcamera's ColorSpace say which
+ * a camera sends; most webcams send BT.601 limited. */
+typedef enum pl_ycbcr {
+    PL_YCBCR_BT601_LIMITED = 0,
+    PL_YCBCR_BT601_FULL = 1,
+    PL_YCBCR_BT709_LIMITED = 2,
+    PL_YCBCR_BT709_FULL = 3,
+} pl_ycbcr;
+
+/* Estimates from a camera frame as it comes, converted to RGB by the conversion the V4L2 and
+ * libcamera sources use (chroma nearest, no filter; exact to within 1 of the formula), then as
+ * pl_estimate_rgb8. The model keeps one RGB buffer for it, grown when the frame size grows:
+ * nothing is allocated per frame once sizes settle. The conversion counts as preprocess time.
+ *  YUYV (V4L2_PIX_FMT_YUYV): rows of Y0 U Y1 V macropixels, `stride` >= 2 x width bytes apart;
+ *       width even (a macropixel is two pixels), height any; both >= 8.
+ *  NV12 (V4L2_PIX_FMT_NV12): a Y plane (rows y_stride >= width bytes apart) and an interleaved
+ *       U V plane of height / 2 rows (uv_stride >= width); width and height even, >= 8.
+ *       V4L2's single-planar NV12 has uv = y + y_stride * height and uv_stride = y_stride.
+ * An odd size, a short stride or an unknown encoding is PL_E_ARG naming it. Not reentrant for
+ * one model, as pl_estimate_rgb8. */
+PL_API int pl_estimate_yuyv(pl_model *model, const uint8_t *yuyv, int width, int height,
+                            size_t stride, pl_ycbcr encoding, pl_lighting *out, pl_timing *timing);
+PL_API int pl_estimate_nv12(pl_model *model, const uint8_t *y, size_t y_stride, const uint8_t *uv,
+                            size_t uv_stride, int width, int height, pl_ycbcr encoding,
+                            pl_lighting *out, pl_timing *timing);
+
+/* Reads an image file into 8-bit RGB, rows packed (stride 3 x width), in a new buffer the caller
+ * frees with pl_free: the decoding `parlight estimate --input` does, so the same file gives the
+ * same lights. JPEG and PNG by the codecs linked in (EXIF orientation applied); BMP, TIFF, WebP,
+ * PNM, ... through the OpenCV plugin when this build has one (loaded on first use; a missing
+ * plugin is PL_E_UNSUPPORTED naming it and the folders searched). Sizes are checked on the
+ * header before decoding (at most 64 Mi pixels). Errors name the path: PL_E_IO (missing,
+ * unreadable, not a regular file), PL_E_FORMAT (not an image, truncated, corrupt, too large),
+ * PL_E_UNSUPPORTED (HDR and float images: not frames). On failure *rgb is NULL. */
+PL_API int pl_image_load_rgb8(const char *path, uint8_t **rgb, int *width, int *height);
+/* Frees a buffer the library allocated for the caller (pl_image_load_rgb8); NULL is fine. */
+PL_API void pl_free(void *p);
 
 /* ---- what AR apps use: primary light, SH, the engine form, relighting, poses ------------- */
 
 /* The lights as seen from point p (metres, camera frame): direction d*l - p, distance |d*l - p|,
  * solid angle scaled by (d/|d*l - p|)^2; rgb (peak radiance) and ambient unchanged. PL_E_ARG if p
  * is within 1 mm of a light or not finite. p = 0 returns L unchanged. out may be L. */
-int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_lighting *out);
+PL_API int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_lighting *out);
 
 /* Main light for AR: the light with the largest energy, luminance(rgb) * (its lobe's integral,
  * 2 pi sigma (1 - e^(-2 / sigma)), sigma = s / 4pi) with
  * luminance = 0.2126 r + 0.7152 g + 0.0722 b (the first one on ties). dir = its direction, rgb =
  * its peak radiance c_i. Returns the index of that light (>= 0); with no lights dir = (0, 1, 0),
  * rgb = (0, 0, 0) and it returns 0 as well (PL_E_ARG only for NULL outputs). */
-int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
+PL_API int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
 
 /* 27 L2 SH coefficients, WebXR order (9 coefficients x RGB interleaved: L00.r, L00.g, L00.b,
  * L1-1.r, ...), in the order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real orthonormal
  * basis. They project RADIANCE (not irradiance): sh[k] = integral L(u) Y_k(u) du. Basis
  * constants and the irradiance conversion are in docs/LIGHTING.md. SG lobes are projected in
  * closed form (zonal), so this is exact up to float rounding. */
-void pl_sh9_from_lights(const pl_lighting *L, float sh[27]);
+PL_API void pl_sh9_from_lights(const pl_lighting *L, float sh[27]);
 
 /* Lighting an engine applies as it is, without double counting (docs/LIGHTING.md, "Engine-ready
  * lighting"): a directional light for the primary light and an SH probe of everything else, so
@@ -178,21 +248,37 @@ typedef struct pl_engine_lighting {
     float intensity[3];
     float sh9[27];
 } pl_engine_lighting;
-void pl_lighting_engine(const pl_lighting *L, pl_engine_lighting *out);
+PL_API void pl_lighting_engine(const pl_lighting *L, pl_engine_lighting *out);
 
 /* Evaluates the radiance of 27 SH coefficients in unit direction u. */
-void pl_sh9_eval(const float sh[27], const float u[3], float rgb[3]);
+PL_API void pl_sh9_eval(const float sh[27], const float u[3], float rgb[3]);
 
 /* How far |q| may be from 1 before a quaternion is refused rather than normalised. */
 #define PL_QUAT_UNIT_TOL 1e-3
 
 /* Row-major 3x3 rotation of unit quaternion q (w, x, y, z). PL_E_ARG, naming the problem, when
  * a component is not finite or | |q| - 1 | > PL_QUAT_UNIT_TOL; otherwise q is normalised first. */
-int pl_quat_to_rotation(const double q[4], double R[9]);
+PL_API int pl_quat_to_rotation(const double q[4], double R[9]);
 
 /* Every light direction turned by R (distances, sizes, colours and the ambient unchanged);
  * out may be L. */
-void pl_lighting_rotate(const pl_lighting *L, const double R[9], pl_lighting *out);
+PL_API void pl_lighting_rotate(const pl_lighting *L, const double R[9], pl_lighting *out);
+
+/* Environment map of the lights + ambient (eq. 4 above), equirectangular, width x width / 2
+ * pixels, each the radiance at its centre direction: pixel (x, y) looks along longitude
+ * phi = 2 pi ((x + 0.5) / width - 0.5) and latitude theta = pi (0.5 - (y + 0.5) / (width / 2)),
+ * u = (cos theta sin phi, sin theta, -cos theta cos phi): the image centre is the camera's view
+ * (-z), the top row up (+y) (docs/LIGHTING.md). rgb holds width * width / 2 * 3 floats,
+ * interleaved linear RGB, rows top to bottom (the caller's). width even, 2..32768; PL_E_ARG for
+ * a bad width, a NULL pointer or an invalid lighting (NaN, n_lights out of range, ...). */
+PL_API int pl_equirect_from_lights(const pl_lighting *L, int width, float *rgb);
+
+/* HDR cube map of the lights + ambient: 6 faces in the order +X, -X, +Y, -Y, +Z, -Z, OpenGL
+ * cube-map conventions (what WebXR's XRLightProbe and WebGL's TEXTURE_CUBE_MAP use; face
+ * orientation in docs/LIGHTING.md), each face x face pixels, rows top to bottom, interleaved
+ * linear RGB: rgb holds 6 * face * face * 3 floats (the caller's). face 1..4096; PL_E_ARG as
+ * above. */
+PL_API int pl_cubemap_from_lights(const pl_lighting *L, int face, float *rgb);
 
 /* ---- the JSON line ------------------------------------------------------------------------ */
 
@@ -214,12 +300,12 @@ typedef struct pl_frame_meta {
  * NUL-terminated.
  * Returns its length, or PL_E_ARG when it does not fit or an argument is NULL. Apps that emit
  * this stream themselves produce the same bytes as the CLI. */
-int pl_frame_format_json(const pl_frame_meta *meta, const pl_lighting *lighting, char *buf,
-                         size_t cap);
+PL_API int pl_frame_format_json(const pl_frame_meta *meta, const pl_lighting *lighting, char *buf,
+                                size_t cap);
 
 /* The latent z of the last estimate (3072 floats for the default model: 1024 channels x 3
  * bands, channel-major), for tests and tools. */
-int pl_model_last_latent(const pl_model *model, const float **z, int *n);
+PL_API int pl_model_last_latent(const pl_model *model, const float **z, int *n);
 
 #ifdef __cplusplus
 }

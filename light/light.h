@@ -47,12 +47,10 @@ int pl_envmap_from_lights(const pl_lighting *L, int width, pl_image_f32 *out);
 /* The same projection of an equirectangular map (sum over pixels of L * Y * pixel solid angle). */
 int pl_sh9_from_envmap(const pl_image_f32 *env, float sh[27]);
 
-/* HDR cube map, 6 faces in order +X, -X, +Y, -Y, +Z, -Z (OpenGL cube-map conventions, as WebXR's
- * XRLightProbe / WebGL TEXTURE_CUBE_MAP use), each face x face RGB floats, rows top to bottom,
- * interleaved RGB: out holds 6 * face * face * 3 floats (caller-owned). Face orientation in
- * docs/LIGHTING.md. face 1..4096. */
-int pl_cubemap_from_lights(const pl_lighting *L, int face, float *out);
-/* The same sampled bilinearly from an equirectangular map (wrapping in longitude). */
+/* pl_cubemap_from_lights (the HDR cube map of lights) and pl_equirect_from_lights (the map above
+ * into a caller's buffer) are public: include/parlight.h. */
+/* A cube map (pl_cubemap_from_lights' layout) sampled bilinearly from an equirectangular map
+ * (wrapping in longitude). */
 int pl_cubemap_from_envmap(const pl_image_f32 *env, int face, float *out);
 /* Unit direction through the centre of pixel (x, y) of cube face f (0..5); x, y may be fractional.
  */

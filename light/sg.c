@@ -80,28 +80,41 @@ void pl_lights_radiance(const pl_lighting *L, const float u[3], float rgb[3])
         rgb[k] = (float)r[k];
 }
 
-int pl_envmap_from_lights(const pl_lighting *L, int width, pl_image_f32 *out)
+static int check_envmap_width(int width)
 {
-    if (!out) return pl_error(PL_E_ARG, "pl_envmap_from_lights: out is NULL");
-    int rc = pl_lighting_check(L);
-    if (rc < 0) return rc;
     if (width < 2 || width % 2 || width > PL_IMAGE_MAX_SIDE)
         return pl_error(PL_E_ARG, "environment map width %d: expected an even number in 2..%d",
                         width, PL_IMAGE_MAX_SIDE);
+    return 0;
+}
+
+int pl_equirect_from_lights(const pl_lighting *L, int width, float *rgb)
+{
+    if (!rgb) return pl_error(PL_E_ARG, "pl_equirect_from_lights: rgb is NULL");
+    int rc = pl_lighting_check(L);
+    if (rc < 0 || (rc = check_envmap_width(width)) < 0) return rc;
     int H = width / 2;
-    rc = pl_image_f32_alloc(out, width, H);
-    if (rc < 0) return rc;
     for (int y = 0; y < H; y++) {
         for (int x = 0; x < width; x++) {
             double u[3], r[3];
             pl_equirect_dir(width, H, x, y, u);
             lights_radiance_d(L, u, r);
-            float *px = out->data + ((size_t)y * (size_t)width + (size_t)x) * 3;
+            float *px = rgb + ((size_t)y * (size_t)width + (size_t)x) * 3;
             for (int k = 0; k < 3; k++)
                 px[k] = (float)r[k];
         }
     }
     return 0;
+}
+
+int pl_envmap_from_lights(const pl_lighting *L, int width, pl_image_f32 *out)
+{
+    if (!out) return pl_error(PL_E_ARG, "pl_envmap_from_lights: out is NULL");
+    int rc = pl_lighting_check(L);
+    if (rc < 0 || (rc = check_envmap_width(width)) < 0) return rc;
+    rc = pl_image_f32_alloc(out, width, width / 2);
+    if (rc < 0) return rc;
+    return pl_equirect_from_lights(L, width, out->data);
 }
 
 int pl_envmap_downsample(const pl_image_f32 *env, int width, pl_image_f32 *out)

@@ -14,6 +14,7 @@
 #include "core/util.h"
 #include "light/light.h"
 #include "model/graph.h"
+#include "model/model.h"
 #include "model/net_f32.h"
 #include "model/net_s8.h"
 #include "model/observer.h"
@@ -34,6 +35,8 @@ struct pl_model {
     pl_f32net *f32; /* one of the two executors, by the file's precision */
     pl_s8 *s8;
     pl_profile *prof; /* pl_model_set_profile, or NULL */
+    uint8_t *frame_rgb; /* pl_model_frame_rgb: the RGB of a converted frame (YUYV, NV12) */
+    size_t frame_rgb_cap;
 };
 
 /* ---- loading ----------------------------------------------------------------------------- */
@@ -86,13 +89,16 @@ static int parse_anchor(const pl_plm *f, float anchor[3])
     return rc;
 }
 
-int pl_model_load(const char *path, pl_model **out)
+/* The model of an opened file (path, or data/size when path is NULL). */
+static int load(const char *path, const void *data, size_t size, pl_model **out)
 {
-    if (!out) return pl_error(PL_E_ARG, "pl_model_load: out is NULL");
+    if (!out)
+        return pl_error(PL_E_ARG, "%s: out is NULL",
+                        path ? "pl_model_load" : "pl_model_load_memory");
     *out = NULL;
     pl_model *m = calloc(1, sizeof *m);
     if (!m) return pl_error(PL_E_NOMEM, "out of memory");
-    int rc = pl_plm_open(path, &m->file);
+    int rc = path ? pl_plm_open(path, &m->file) : pl_plm_open_memory(data, size, &m->file);
     if (rc < 0) {
         free(m);
         return rc;
@@ -155,9 +161,24 @@ fail:
     return rc;
 }
 
+int pl_model_load(const char *path, pl_model **out)
+{
+    if (!path) {
+        if (out) *out = NULL;
+        return pl_error(PL_E_ARG, "model path is NULL");
+    }
+    return load(path, NULL, 0, out);
+}
+
+int pl_model_load_memory(const void *data, size_t size, pl_model **out)
+{
+    return load(NULL, data, size, out);
+}
+
 void pl_model_free(pl_model *m)
 {
     if (!m) return;
+    free(m->frame_rgb);
     pl_s8_free(m->s8);
     pl_f32net_free(m->f32);
     pl_pool_destroy(m->pool);
@@ -246,6 +267,20 @@ const pl_graph *pl_model_graph(const pl_model *m)
 const char *pl_model_precision(const pl_model *m)
 {
     return m ? m->precision : NULL;
+}
+
+uint8_t *pl_model_frame_rgb(pl_model *m, size_t bytes)
+{
+    if (bytes > m->frame_rgb_cap) {
+        uint8_t *p = realloc(m->frame_rgb, bytes);
+        if (!p) {
+            pl_error(PL_E_NOMEM, "cannot allocate %zu bytes for a frame's RGB", bytes);
+            return NULL;
+        }
+        m->frame_rgb = p;
+        m->frame_rgb_cap = bytes;
+    }
+    return m->frame_rgb;
 }
 
 /* ---- estimating ---------------------------------------------------------------------------- */

@@ -191,32 +191,42 @@ static int check_entry(pl_plm *plm, uint32_t i, const uint8_t *e, uint64_t data_
     return PL_OK;
 }
 
-/* Reads the whole file into memory this process owns (64-byte aligned, as the tensors need), so
- * that nothing done to the file afterwards (truncated, overwritten, replaced) reaches a loaded
- * model: a mapping of it would fault (SIGBUS) on truncation and show overwritten bytes. A file
- * that changes while it is read fails here or at the checksum. */
+/* The buffer a model's n bytes live in: 64-byte aligned as the tensors need, the tail past n
+ * zeroed; *buf is NULL with the error returned when the size does not fit or it cannot be had. */
+static int alloc_bytes(const char *path, uint64_t n, uint8_t **buf)
+{
+    *buf = NULL;
+    if (n < PL_PLM_HEADER_SIZE)
+        return pl_error(PL_E_FORMAT, "%s: %llu bytes, too short for a .plm header (64)", path,
+                        (unsigned long long)n);
+    size_t cap;
+    if (n > SIZE_MAX || !pl_add_size((size_t)n, PL_PLM_ALIGN - 1, &cap))
+        return pl_error(PL_E_NOMEM, "%s: %llu bytes do not fit in memory", path,
+                        (unsigned long long)n);
+    cap -= cap % PL_PLM_ALIGN; /* aligned_alloc wants a multiple of the alignment */
+    *buf = aligned_alloc(PL_PLM_ALIGN, cap);
+    if (!*buf)
+        return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
+    memset(*buf + n, 0, cap - (size_t)n);
+    return PL_OK;
+}
+
+/* Reads the whole file into memory this process owns, so that nothing done to the file
+ * afterwards (truncated, overwritten, replaced) reaches a loaded model: a mapping of it would
+ * fault (SIGBUS) on truncation and show overwritten bytes. A file that changes while it is read
+ * fails here or at the checksum. */
 static int read_whole(const char *path, pl_plm *plm)
 {
     int fd;
     int64_t size;
     int rc = pl_file_open_regular(path, "model", &fd, &size);
     if (rc < 0) return rc;
-    if (size < (int64_t)PL_PLM_HEADER_SIZE) {
+    uint8_t *buf;
+    if ((rc = alloc_bytes(path, (uint64_t)size, &buf)) < 0) {
         close(fd);
-        return pl_error(PL_E_FORMAT, "%s: %lld bytes, too short for a .plm header (64)", path,
-                        (long long)size);
+        return rc;
     }
-    size_t n = (size_t)size, cap;
-    if ((uint64_t)size > SIZE_MAX || !pl_add_size(n, PL_PLM_ALIGN - 1, &cap)) {
-        close(fd);
-        return pl_error(PL_E_NOMEM, "%s: %lld bytes do not fit in memory", path, (long long)size);
-    }
-    cap -= cap % PL_PLM_ALIGN; /* aligned_alloc wants a multiple of the alignment */
-    uint8_t *buf = aligned_alloc(PL_PLM_ALIGN, cap);
-    if (!buf) {
-        close(fd);
-        return pl_error(PL_E_NOMEM, "%s: cannot allocate %zu bytes for the model", path, cap);
-    }
+    const size_t n = (size_t)size;
     size_t got = 0;
     while (got < n) {
         ssize_t r = read(fd, buf + got, n - got);
@@ -239,11 +249,24 @@ static int read_whole(const char *path, pl_plm *plm)
         free(buf);
         return rc;
     }
-    memset(buf + n, 0, cap - n);
     plm->bytes = buf;
     plm->n_bytes = n;
     return PL_OK;
 }
+
+/* The memory twin of read_whole: a copy of the caller's n bytes. */
+static int copy_whole(const void *data, size_t n, const char *path, pl_plm *plm)
+{
+    uint8_t *buf;
+    int rc = alloc_bytes(path, n, &buf);
+    if (rc < 0) return rc;
+    memcpy(buf, data, n);
+    plm->bytes = buf;
+    plm->n_bytes = n;
+    return PL_OK;
+}
+
+static int validate(const char *path, pl_plm *plm);
 
 int pl_plm_open(const char *path, pl_plm *plm)
 {
@@ -252,7 +275,26 @@ int pl_plm_open(const char *path, pl_plm *plm)
     if (!path) return pl_error(PL_E_ARG, "model path is NULL");
     int rc = read_whole(path, plm);
     if (rc < 0) return rc;
+    return validate(path, plm);
+}
 
+int pl_plm_open_memory(const void *data, size_t size, pl_plm *plm)
+{
+    static const char name[] = "<memory>";
+    memset(plm, 0, sizeof *plm);
+    snprintf(plm->path, sizeof plm->path, "%s", name);
+    if (!data || size == 0)
+        return pl_error(PL_E_ARG, "%s: model buffer is %s", name, data ? "empty" : "NULL");
+    int rc = copy_whole(data, size, name, plm);
+    if (rc < 0) return rc;
+    return validate(name, plm);
+}
+
+/* Everything the format promises, checked on the owned copy (plm->bytes); closes plm on failure.
+ */
+static int validate(const char *path, pl_plm *plm)
+{
+    int rc;
     const uint8_t *h = plm->bytes;
     if (memcmp(h, PL_PLM_MAGIC "\0", 8)) {
         rc = pl_error(PL_E_FORMAT, "%s: not a parlight model (bad magic)", path);
@@ -273,8 +315,9 @@ int pl_plm_open(const char *path, pl_plm *plm)
         goto fail;
     }
     if (file_size != plm->n_bytes) {
-        rc = pl_error(PL_E_FORMAT, "%s: header says %llu bytes, file has %zu (truncated?)", path,
-                      (unsigned long long)file_size, plm->n_bytes);
+        rc = pl_error(PL_E_FORMAT, "%s: header says %llu bytes, %s has %zu (truncated?)", path,
+                      (unsigned long long)file_size, strcmp(path, "<memory>") ? "file" : "buffer",
+                      plm->n_bytes);
         goto fail;
     }
     if (meta_offset != PL_PLM_HEADER_SIZE || meta_size < 1 || meta_size > PL_PLM_MAX_META ||

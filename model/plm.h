@@ -51,6 +51,9 @@ typedef struct pl_plm {
 /* Opens and validates `path`. On failure returns <0 with pl_last_error() naming the file and
  * the problem, and leaves *plm closed. */
 int pl_plm_open(const char *path, pl_plm *plm);
+/* The same from a file's bytes in memory, copied first (the caller keeps its buffer); messages
+ * name the model "<memory>". */
+int pl_plm_open_memory(const void *data, size_t size, pl_plm *plm);
 void pl_plm_close(pl_plm *plm);
 
 /* Tensor named `name`, or NULL. */

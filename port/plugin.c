@@ -1,6 +1,8 @@
 /* Loading plugins on first use (port/plugin.h). */
 #include "core/image.h"
+#include "core/status.h"
 #include "core/util.h"
+#include "port/image_mem.h"
 #include "port/plugin.h"
 
 #include <dlfcn.h>
@@ -12,6 +14,22 @@
 #include <unistd.h>
 
 #define MAX_PLUGINS 4
+
+static const pl_plugin_host host = {
+    .abi = PL_PLUGIN_ABI,
+    .error = pl_error,
+    .error_prefix = pl_error_prefix,
+    .image_max_pixels = pl_image_max_pixels,
+    .image_check_read_size = pl_image_check_read_size,
+    .image_u8_reserve = pl_image_u8_reserve,
+    .image_decode_jpeg_rgb8_reuse = pl_image_decode_jpeg_rgb8_reuse,
+    .yuv_coeffs_init = pl_yuv_coeffs_init,
+    .pixfmt_min_bytes = pl_pixfmt_min_bytes,
+    .pixfmt_name = pl_pixfmt_name,
+    .yuyv_to_rgb8 = pl_yuyv_to_rgb8,
+    .nv12_to_rgb8 = pl_nv12_to_rgb8,
+    .rgb24_to_rgb8 = pl_rgb24_to_rgb8,
+};
 
 static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static struct {
@@ -50,10 +68,45 @@ static void opencv_limits(void)
     setenv("OPENCV_IO_MAX_IMAGE_HEIGHT", v, 0);
 }
 
+/* Folder of the object this code is linked into (libparlight.so, or the executable for a static
+ * link), or "". */
+static void lib_dir(char *out, size_t n)
+{
+    Dl_info info;
+    out[0] = '\0';
+    if (!dladdr((void *)lib_dir, &info) || !info.dli_fname) return;
+    char path[PATH_MAX];
+    if (!realpath(info.dli_fname, path)) return;
+    char *slash = strrchr(path, '/');
+    if (!slash) return;
+    *slash = '\0';
+    snprintf(out, n, "%s", path[0] ? path : "/");
+}
+
+/* dlopen, then hand the plugin the host table; NULL with *why set when either fails. */
+static void *open_plugin(const char *path, char *why, size_t why_len)
+{
+    void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (!h) {
+        const char *e = dlerror();
+        snprintf(why, why_len, "%s", e ? e : "dlopen failed");
+        return NULL;
+    }
+    pl_plugin_bind_fn bind = (pl_plugin_bind_fn)dlsym(h, "pl_plugin_bind");
+    if (!bind || bind(&host) < 0) {
+        snprintf(why, why_len, "%.300s: %s", path,
+                 bind ? "built for another plugin ABI (rebuild it with this parlight)"
+                      : "not a parlight plugin (no pl_plugin_bind)");
+        dlclose(h);
+        return NULL;
+    }
+    return h;
+}
+
 static void *load(const char *name, char *error, size_t error_len)
 {
     if (strcmp(name, "opencv") == 0) opencv_limits();
-    char file[64], dirs[4][PATH_MAX], tried[1024] = "";
+    char file[64], dirs[5][PATH_MAX], tried[1024] = "";
     snprintf(file, sizeof file, "parlight-%s.so", name);
     int nd = 0;
     const char *env = getenv("PARLIGHT_PLUGIN_DIR");
@@ -65,6 +118,10 @@ static void *load(const char *name, char *error, size_t error_len)
         snprintf(dirs[nd++], sizeof dirs[0], "%.3900s/..", exe);
         snprintf(dirs[nd++], sizeof dirs[0], "%.3900s/../lib/parlight", exe);
     }
+    char lib[PATH_MAX];
+    lib_dir(lib, sizeof lib);
+    if (lib[0] && strcmp(lib, exe) != 0)
+        snprintf(dirs[nd++], sizeof dirs[0], "%.3900s/parlight", lib);
     char last[400] = "not found";
     for (int i = 0; i < nd; i++) {
         char path[4096];
@@ -73,10 +130,8 @@ static void *load(const char *name, char *error, size_t error_len)
         if (used + 2 < sizeof tried)
             snprintf(tried + used, sizeof tried - used, "%s%.300s", used ? ", " : "", dirs[i]);
         if (access(path, F_OK) != 0) continue;
-        void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+        void *h = open_plugin(path, last, sizeof last);
         if (h) return h;
-        const char *e = dlerror();
-        snprintf(last, sizeof last, "%s", e ? e : "dlopen failed");
     }
     snprintf(error, error_len, "cannot load the %s plugin %s (looked in %s): %s", name, file,
              nd ? tried : "(no folder: set PARLIGHT_PLUGIN_DIR)", last);

@@ -1,5 +1,7 @@
 /* libFuzzer target: the .plm model loader (model/plm.c) and the model's checks of its metadata
- * and tensors (model/model.c, model/binder.c, the executors' load steps), through pl_model_load.
+ * and tensors (model/model.c, model/binder.c, the executors' load steps), through
+ * pl_model_load_memory (the same validation as pl_model_load, without a file per input; the
+ * file path's reading is covered by tests/test_model_files.sh and tests/plm_corrupt.c).
  *
  * Before loading, the header's file size (bytes 16..23) and CRC-32 (bytes 56..59) are set to
  * what the mutated input has, so that mutations reach the checks behind them; truncation and
@@ -29,11 +31,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         for (int k = 0; k < 4; k++)
             b[56 + k] = (uint8_t)(crc >> (8 * k));
     }
-    const char *path = fuzz_input_path(b, size);
-    free(b);
-
     pl_model *m = NULL;
-    int rc = pl_model_load(path, &m);
+    int rc = pl_model_load_memory(b, size, &m);
+    free(b); /* the model keeps its own copy */
     fuzz_expect_message(rc, pl_last_error());
     if (rc < 0) return 0;
     pl_model_info info;
