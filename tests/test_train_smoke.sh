@@ -7,7 +7,8 @@
 # train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
 # checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
 # step 1 and step 2, the export (.plm), --ema (resumes, never feeds back, ends step 1 on
-# the average), --w-map and --sphere-truth map (resume, the auxiliary head is not exported),
+# the average), --w-map, --sphere-truth map and --w-primary (resume, the auxiliary head is not
+# exported; the primary-light loss on known cases),
 # and the exported model in C (parlight info, estimate)
 # against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3);
 # tools/train/int8_sim.py on its int8 quantisations against parlight qcheck.
@@ -241,7 +242,7 @@ EOF
 # resume bit-identically, the head trains and its loss is logged, the export leaves it out (the
 # same tensors as a plain export, and C agrees with the checkpoint), and a dataset without
 # radiance maps is refused ---
-DENSE=(--w-map 1 --sphere-truth map --w-d1 5 --step2-loss render)
+DENSE=(--w-map 1 --sphere-truth map --w-d1 5 --step2-loss render --w-primary 1)
 resume_pair ckm dense "${DENSE[@]}"
 "$PY" - "$TMP/ckm/last.pt" "$TMP/ckm2/last.pt" <<'EOF' || fail "dense resume"
 import sys, torch
@@ -252,6 +253,26 @@ assert worst <= 1e-6, f"resumed vs uninterrupted: {worst}"
 print(f"--w-map --sphere-truth map: resumed vs uninterrupted {worst:.3g}")
 EOF
 grep -q " aux " "$TMP/log-ckm" || fail "--w-map: no auxiliary loss in $(cat "$TMP/log-ckm")"
+grep -q " primary " "$TMP/log-ckm" || fail "--w-primary: no primary loss in $(cat "$TMP/log-ckm")"
+"$PY" - <<'EOF' || fail "primary_loss"
+# the primary-light loss: 0 when the most energetic predicted light points at the truth's primary,
+# 2 when it points away, and the lights' energies (not their order) decide which is primary
+import sys, torch
+sys.path.insert(0, "tools/train")
+import train
+gt = {"dir": torch.tensor([[[0., 1, 0], [1, 0, 0]]]), "size": torch.tensor([[0.1, 0.1]]),
+      "rgb": torch.tensor([[[1., 1, 1], [50, 50, 50]]]), "mask": torch.ones(1, 2)}
+up, right, left = [0., 1, 0], [1., 0, 0], [-1., 0, 0]
+def out(dirs, bright):
+    rgb = torch.full((1, 3, 3), 1e-3)
+    rgb[0, bright] = 1e3
+    return {"dir": torch.tensor([dirs]), "size": torch.full((1, 3), 0.1), "rgb": rgb}
+assert float(train.primary_loss(out([up, right, left], 1), gt)) < 1e-5
+assert abs(float(train.primary_loss(out([up, right, left], 2), gt)) - 2) < 1e-5
+assert float(train.primary_loss(out([up, right, left], 0), gt)) > 0.99
+gt["mask"][:] = 0
+assert float(train.primary_loss(out([up, right, left], 2), gt)) == 0.0
+EOF
 "${TR[@]}" "${DENSE[@]}" --ckpt-dir "$TMP/ckm" --log "$TMP/log-ckm" --export "$TMP/mm.plm" \
     >/dev/null || fail "dense: finish and export"
 [ "$(stat -c %s "$TMP/mm.plm")" = "$(stat -c %s "$TMP/m.plm")" ] ||

@@ -6,7 +6,8 @@
 # reported and left out; a rerun resumes and changes nothing) -> distill.py (1 epoch) ->
 # train.py steps 1 and 2 with the dense supervision (--w-map, --sphere-truth map), --stream ->
 # the export (C agrees with PyTorch) -> the intensity anchor fitted on `parlight eval --anchor
-# off` of a held-out panorama -> parlight quantize (int8) -> the ridge baseline (d) fitted on the
+# off` of a held-out panorama -> heads.py (fc and heads on the frozen encoder with the
+# primary-light loss; resumable) -> parlight quantize (int8) -> the ridge baseline (d) fitted on the
 # crops (fit_ridge.py) -> `parlight eval --json` of the float and int8 models with (d) beside. Also: make_dataset.py refuses the shared eval/ folder, and train.py
 # --device cuda is refused with a reason where there is no CUDA device.
 # Needs ../shared (panoramas and the MobileNetV2 teacher). ~3 minutes on 2 cores.
@@ -88,15 +89,49 @@ ln -s "$P/${held#panos/}" "$V/"
 "$PY" tools/train/fit_anchor.py "$TMP/raw.json" --write "$TMP/m.plm" "$TMP/ma.plm" \
     >"$TMP/a.log" 2>&1 || fail "fit_anchor.py: $(cat "$TMP/a.log")"
 "$BUILD/parlight" info --model "$TMP/ma.plm" | grep -q "anchor" || fail "no anchor in the model"
+# direction first: fc and heads retrained on the frozen encoder with the primary-light loss; a
+# run stopped after epoch 1 and rerun ends with the same bytes as one run of 2 epochs (the
+# cached latents reused from another work folder)
+HD=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-panos 1 --batch 4
+    --threads 1 --epochs 2)
+"${HD[@]}" --out "$TMP/mh.plm" --work "$TMP/hw" >"$TMP/h.log" 2>&1 ||
+    fail "heads.py: $(cat "$TMP/h.log")"
+grep -q "primary angle median" "$TMP/h.log" || fail "heads.py: no validation angle logged"
+mkdir -p "$TMP/hw2" && cp "$TMP/hw/z.pt" "$TMP/hw2/"
+"${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --epochs 1 >"$TMP/h2.log" 2>&1 &&
+    "${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --force >>"$TMP/h2.log" 2>&1 ||
+    fail "heads.py resume: $(cat "$TMP/h2.log")"
+grep -q "latents of" "$TMP/h2.log" && fail "heads.py recomputed the cached latents"
+grep -q "resumed" "$TMP/h2.log" || fail "heads.py did not resume"
+cmp -s "$TMP/mh.plm" "$TMP/mh2.plm" || fail "heads.py: resumed run differs from one run"
+"${HD[@]}" --out "$TMP/mh.plm" --work "$TMP/hw" >"$TMP/h3.log" 2>&1 &&
+    fail "heads.py replaced an existing model without --force"
+grep -q "use --force" "$TMP/h3.log" || fail "heads.py: no reason: $(cat "$TMP/h3.log")"
+"$PY" - "$TMP/ma.plm" "$TMP/mh.plm" <<'EOF' || fail "heads.py changed more than fc and heads"
+import sys
+sys.path.insert(0, "tools")
+import numpy as np, plm
+ma, ta, _ = plm.read_plm(sys.argv[1])
+mh, th, _ = plm.read_plm(sys.argv[2])
+assert list(ta) == list(th), "tensor order"
+heads = ("fc.", "head_dir.", "head_size.", "head_rgb.", "head_ambient.")
+for k in ta:
+    same = np.array_equal(ta[k], th[k])
+    assert same != k.startswith(heads), k
+assert {k: v for k, v in ma.items() if k != "provenance"} == \
+    {k: v for k, v in mh.items() if k != "provenance"}, "metadata (the anchor) changed"
+assert "heads.py" in mh["provenance"]
+EOF
+echo "heads.py (frozen encoder, primary-light loss): resumes bit-identically, changes only fc and heads"
 mkdir -p "$TMP/calib"
 "$BUILD/parlight" crop --hdr "$H/train/comfy_cafe.hdr" --batch 4 --out-dir "$TMP/calib" \
     --format jpg >/dev/null || fail "calibration frames"
 rm -f "$TMP"/calib/*.json
-"$BUILD/parlight" quantize --model "$TMP/ma.plm" --calib "$TMP/calib" --out "$TMP/m8.plm" \
+"$BUILD/parlight" quantize --model "$TMP/mh.plm" --calib "$TMP/calib" --out "$TMP/m8.plm" \
     >"$TMP/q.log" 2>&1 || fail "parlight quantize: $(cat "$TMP/q.log")"
 "$PY" tools/train/fit_ridge.py --data "$TMP/data" --val-panos 1 --out "$TMP/ridge.json" \
     >"$TMP/r.log" 2>&1 || fail "fit_ridge.py on a --panos dataset: $(cat "$TMP/r.log")"
-for m in ma m8; do
+for m in ma mh m8; do
     "$BUILD/parlight" eval --model "$TMP/$m.plm" --hdr "$V" --crops 2 --json \
         --ridge "$TMP/ridge.json" >"$TMP/$m.json" || fail "parlight eval $m"
     "$PY" - "$TMP/$m.json" <<'EOF' || fail "eval JSON of $m"

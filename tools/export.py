@@ -239,9 +239,9 @@ def expected_shapes(n_lights, dist_hidden=64):
     return s
 
 
-def folded_forward(t, x, n_lights):
-    """The network on folded tensors {name: tensor} (what the C executor computes), x [B,3,H,W].
-    Same dict as ParLightNet.forward."""
+def folded_features(t, x):
+    """relu(norm5(features(x))) [B, 1024, H/32, W/32] on folded tensors {name: tensor}: the
+    DenseNet part of folded_forward (tools/train/heads.py caches it for a frozen encoder)."""
     def pre(name, v):   # pre-activation BN + ReLU
         return F.relu(v * t[f"{name}.scale"].view(1, -1, 1, 1) + t[f"{name}.shift"].view(1, -1, 1, 1))
 
@@ -256,8 +256,13 @@ def folded_forward(t, x, n_lights):
         if bi < 4:
             p = f"transition{bi}"
             v = F.avg_pool2d(F.conv2d(pre(f"{p}.norm", v), t[f"{p}.conv.weight"]), 2, 2)
-    v = pre("norm5", v)
-    z = F.adaptive_avg_pool2d(v, (BANDS, 1)).flatten(1)
+    return pre("norm5", v)
+
+
+def folded_forward(t, x, n_lights):
+    """The network on folded tensors {name: tensor} (what the C executor computes), x [B,3,H,W].
+    Same dict as ParLightNet.forward."""
+    z = F.adaptive_avg_pool2d(folded_features(t, x), (BANDS, 1)).flatten(1)
     h = F.relu(F.linear(z, t["fc.weight"], t["fc.bias"]))
     n = n_lights
     d = F.normalize(F.linear(h, t["head_dir.weight"], t["head_dir.bias"]).view(-1, n, 3), dim=-1)

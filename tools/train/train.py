@@ -8,7 +8,8 @@
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
                          [--sphere-metric log|relative] [--z-dropout 0] [--erase 0] [--ema 0]
-                         [--w-map 0] [--sphere-truth lights|map] [--device cpu|cuda] [--stream]
+                         [--w-map 0] [--sphere-truth lights|map] [--w-primary 0]
+                         [--device cpu|cuda] [--stream]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -64,6 +65,11 @@ the map after log1p, L2 weighted by each row's solid angle. --sphere-truth map l
 diffuse-sphere terms' truth (--w-d1, --step2-loss render) by that real panorama instead of the
 extracted lights + ambient: what `parlight eval` scores against, light the extraction left out
 included.
+Direction first (not in the paper; off by default): --w-primary W adds W times primary_loss in
+step 1, the angular error of the primary light (the one pl_lighting_primary reports and an AR app
+casts shadows from), which neither the map's nor the sphere's L2 measures. tools/train/heads.py
+trains the fc and heads of a finished .plm with it on the frozen encoder, which is how the shipped
+network got it.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
@@ -120,11 +126,11 @@ COS45 = math.cos(math.radians(45.0))
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
                "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
-               "erase", "ema", "w_map", "sphere_truth")
+               "erase", "ema", "w_map", "sphere_truth", "w_primary")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
                    "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0,
-                   "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights"}
+                   "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights", "w_primary": 0.0}
 AUX_PREFIX = "aux_map."   # the auxiliary map head's tensors: trained, never exported
 
 
@@ -407,15 +413,23 @@ def radiance_tf(x, mode):
     return torch.log1p(x) if mode == "log" else x
 
 
-def step1_loss(out, gt, udirs, cfg, render=None):
+def gt_map(gt, udirs, cfg):
+    """The ground-truth lights' prefiltered SG map of step1_loss."""
+    return sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, mask=gt["mask"],
+                     prefilter_sigma=sg.pixel_sigma(cfg["map_width"]))
+
+
+def step1_loss(out, gt, udirs, cfg, render=None, gm=None):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
     w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
-    head's loss when --w-map > 0. render = (udirs, op, op of the crops' radiance maps or None,
-    their rows' solid-angle weights or None)."""
+    head's loss when --w-map > 0, plus w_primary * primary_loss when --w-primary > 0.
+    render = (udirs, op, op of the crops' radiance maps or None, their rows' solid-angle weights
+    or None); gm: gt_map(gt, udirs, cfg) when the caller has it already."""
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
                    prefilter_sigma=pf)
-    gm = sg.render(gt["dir"], gt["size"], gt["rgb"], udirs, mask=gt["mask"], prefilter_sigma=pf)
+    if gm is None:
+        gm = gt_map(gt, udirs, cfg)
     lr = F.mse_loss(radiance_tf(pm, cfg["radiance"]), radiance_tf(gm, cfg["radiance"]))
     la = F.mse_loss(radiance_tf(out["ambient"].float(), cfg["radiance"]),
                     radiance_tf(gt["ambient"], cfg["radiance"]))
@@ -429,7 +443,43 @@ def step1_loss(out, gt, udirs, cfg, render=None):
         lm = (((out["aux_map"].float() - torch.log1p(gt["map"])) ** 2) * render[3]).mean()
         total = total + cfg["w_map"] * lm
         parts["aux"] = float(lm)
+    if cfg.get("w_primary", 0.0) > 0:
+        lp = primary_loss(out, gt)
+        total = total + cfg["w_primary"] * lp
+        parts["primary"] = float(lp)
     return total, parts
+
+
+LUMA = (0.2126, 0.7152, 0.0722)
+
+
+def light_energy(rgb, size):
+    """[B, N] luminance(rgb) x SG integral of each light (light/sg.c pl_sg_integral): what
+    pl_lighting_primary ranks the lights by."""
+    sigma = size.clamp_min(1e-12) / (4 * math.pi)
+    lum = rgb @ torch.tensor(LUMA, dtype=rgb.dtype, device=rgb.device)
+    return lum * 2 * math.pi * sigma * -torch.expm1(-2 / sigma)
+
+
+def gt_primary(gt):
+    """Unit direction [B, 3] of each crop's primary ground-truth light and whether it has one."""
+    e = light_energy(gt["rgb"], gt["size"]) * gt["mask"]
+    i = e.argmax(1)
+    return gt["dir"][torch.arange(len(i), device=i.device), i], gt["mask"].sum(1) > 0
+
+
+def primary_loss(out, gt):
+    """Direction first (not in the paper; --w-primary): the angular error of the primary light,
+    the one an AR app casts shadows from. pl_lighting_primary takes the predicted light of the
+    largest energy; here each predicted light's 1 - cos to the ground truth's primary is weighted
+    by the softmax of the lights' log energies (a differentiable stand-in for that choice), mean
+    over the crops that have a light. Under uncertainty its optimum is the mean direction of
+    what the crop could be lit from, where the map's L2 rewards spreading the lights instead."""
+    e = light_energy(out["rgb"].float(), out["size"].float())
+    w = torch.softmax(torch.log(e.clamp_min(1e-30)), 1)
+    d, has = gt_primary(gt)
+    err = ((1 - (out["dir"].float() * d[:, None, :]).sum(-1)) * w).sum(1)
+    return (err * has).sum() / has.sum().clamp_min(1)
 
 
 def match(pred_dir, gt):
@@ -672,7 +722,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
             sums["loss"] += float(loss)
             sums["map"] += parts["map"]
             sums["amb"] += parts["amb"]
-            for key in ("sphere", "aux"):
+            for key in ("sphere", "aux", "primary"):
                 if key in parts:
                     sums[key] = sums.get(key, 0.0) + parts[key]
             sums["n"] += 1
@@ -698,7 +748,8 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
         log_line(paths["log"], f"step1 epoch {ep + 1}/{cfg['step1_epochs']} lr {lr_at(cfg, ep):.3g} "
                  f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}"
                  + (f" sphere {sums['sphere'] / n:.6g}" if "sphere" in sums else "")
-                 + (f" aux {sums['aux'] / n:.6g}" if "aux" in sums else "") + ") "
+                 + (f" aux {sums['aux'] / n:.6g}" if "aux" in sums else "")
+                 + (f" primary {sums['primary'] / n:.6g}" if "primary" in sums else "") + ") "
                  f"val {vl:.6g}{vl_ema} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
                  + (" (resumed epoch: rate over its last part)" if resumed_at else ""))
         state.update(epoch=ep + 1, batch=0)
@@ -846,6 +897,8 @@ def main(argv=None):
                     help="step 1: weight of an auxiliary head (training only, not exported) "
                     "regressing the crop's radiance map after log1p from the 512-d vector "
                     "(needs a dataset made with make_dataset.py --gt-map; 0: off)")
+    ap.add_argument("--w-primary", type=float, default=0.0, metavar="W",
+                    help="weight of the primary light's angular loss in step 1 (primary_loss)")
     ap.add_argument("--sphere-truth", choices=("lights", "map"), default="lights",
                     help="the diffuse-sphere terms' truth: the sphere lit by the extracted lights "
                     "and ambient, or by the crop's real panorama (--gt-map datasets)")
@@ -894,8 +947,9 @@ def main(argv=None):
                 raise ValueError(f"{name} {v}: expected a probability in [0, 1)")
         if not 0.0 <= args.ema < 1.0:
             raise ValueError(f"--ema {args.ema}: expected a decay in [0, 1)")
-        if not (0.0 <= args.w_map and math.isfinite(args.w_map)):
-            raise ValueError(f"--w-map {args.w_map}: expected a weight >= 0")
+        for name, v in (("--w-map", args.w_map), ("--w-primary", args.w_primary)):
+            if not (0.0 <= v and math.isfinite(v)):
+                raise ValueError(f"{name} {v}: expected a weight >= 0")
         need_map = args.w_map > 0 or args.sphere_truth == "map"
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
@@ -931,6 +985,7 @@ def main(argv=None):
                "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
                "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
                "w_map": args.w_map, "sphere_truth": args.sphere_truth,
+               "w_primary": args.w_primary,
                "gt_map_width": int(gt["map"].shape[2]) if need_map else 0,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "threads": [max(1, args.threads)], "device": args.device,

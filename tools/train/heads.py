@@ -1,0 +1,345 @@
+#!/usr/bin/python3
+"""Retrain the fc and the lighting heads of a float .plm on its frozen encoder ("direction
+first", issue 21).
+
+    tools/train/heads.py --model BASE.plm --data DATASET --out OUT.plm
+                         [--val-panos 0] [--epochs 30] [--halve-every 10] [--lr 1e-3]
+                         [--batch 16] [--w-primary 1] [--w-r 20] [--w-a 1] [--w-d1 20]
+                         [--step2-epochs 0] [--step2-scenes indoor|all]
+                         [--seed 1] [--threads 2] [--work DIR] [--log FILE] [--force]
+
+The DenseNet part of BASE (its folded tensors, exactly what the C executor runs: export.py
+folded_features) is frozen; its latent z of every crop of DATASET (make_dataset.py) and of the
+crop's mirror image is computed once and cached in the work folder. Then the fc and the
+direction, size, colour and ambient heads train from BASE's values on train.py's step-1 loss (SG
+map w_r, ambient w_a, diffuse sphere w_d1) plus --w-primary times train.primary_loss, the angular
+error of the primary light, which the paper's losses do not measure and which an AR app's shadows
+depend on. The distance head keeps BASE's weights (it reads z and the predicted directions; no
+step-1 term trains it). A linear probe on the frozen z of a network trained without the term
+finds the primary light 12 degrees closer than that network's own heads on held-out rooms
+(MODEL_CARD.md, "Direction first"): the cue is in z, the heads had not been asked for it.
+
+--epochs 0 skips to step 2. --step2-epochs N then runs train.py's step 2 of the shipped recipe (--step2-loss render) on the
+same latents: the fc and the direction head frozen, the size, colour and ambient heads trained on
+the diffuse sphere's L2 and the ambient's, on the indoor crops (--step2-scenes indoor, the
+default) for N epochs, the learning rate restarting at --lr. The primary light can still change
+in it (energies move), so the validation angle is logged there too.
+
+OUT is BASE with those five layers replaced: same trunk bytes, same metadata (the intensity
+anchor included), the provenance extended. Quantise it as any float model (parlight quantize).
+Only train/ panoramas train (train.load_dataset refuses others); --val-panos N holds out
+train.py's validation panoramas and logs their loss and median primary-light angle per epoch.
+
+Work folder (--work, default OUT.heads/): z.pt (the cached latents, keyed by the trunk's and the
+dataset's sha256 and reused by any run on both), last.pt (checkpoint at each epoch end); rerunning
+the command resumes from it and ends with the same bytes as an uninterrupted run (the batch order
+and flips of an epoch are a function of --seed and the epoch). Deterministic on the CPU for the
+same --threads. About 35 s an epoch for 4,800 crops on one loaded core here.
+"""
+
+import argparse
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))
+import export  # noqa: E402
+import plm  # noqa: E402
+import sg  # noqa: E402
+import train  # noqa: E402
+from model import BANDS, ParLightNet  # noqa: E402
+
+TRAINED = ("fc", "head_dir", "head_size", "head_rgb", "head_ambient")
+# what must match for last.pt to resume (--epochs may grow: the schedule depends on the epoch only)
+RESUME_KEYS = ("base_trunk_sha256", "data_index_sha256", "val_panos", "halve_every",
+               "lr", "batch", "w_primary", "w_r", "w_a", "w_d1", "seed")
+
+
+def trunk_sha256(tensors):
+    h = hashlib.sha256()
+    for name, arr in tensors.items():
+        if not name.startswith(TRAINED + ("head_dist",)):
+            h.update(name.encode())
+            h.update(np.ascontiguousarray(arr).tobytes())
+    return h.hexdigest()
+
+
+def latents(t, imgs, bs=64, log=None):
+    """z [2, M, 1024 * BANDS] of every crop (index 0) and of its mirror (index 1)."""
+    m = len(imgs)
+    z = torch.zeros(2, m, 1024 * BANDS)
+    t0 = time.time()
+    with torch.no_grad():
+        for i in range(0, m, bs):
+            u8 = imgs[torch.arange(i, min(m, i + bs))]
+            for f in (0, 1):
+                x = train.to_input(u8.flip(2) if f else u8)
+                z[f, i:i + len(u8)] = F.adaptive_avg_pool2d(export.folded_features(t, x),
+                                                            (BANDS, 1)).flatten(1)
+            if log and (i // bs) % 20 == 0:
+                log(f"latents {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
+    return z
+
+
+def forward(net, z):
+    n = net.n_lights
+    h = F.relu(net.fc(z))
+    d = F.normalize(net.head_dir(h).view(-1, n, 3), dim=-1)
+    return {"dir": d, "size": F.softplus(net.head_size(h)),
+            "rgb": F.softplus(net.head_rgb(h)).view(-1, n, 3),
+            "ambient": F.softplus(net.head_ambient(h))}
+
+
+def primary_angles(out, gt):
+    """Degrees between pl_lighting_primary's light (largest energy) and the truth's primary, for
+    the crops that have a light."""
+    e = train.light_energy(out["rgb"], out["size"])
+    i = e.argmax(1)
+    pd = out["dir"][torch.arange(len(i)), i]
+    d, has = train.gt_primary(gt)
+    return torch.rad2deg(torch.acos((pd * d).sum(1).clamp(-1, 1)))[has], has
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--model", required=True, help="the float .plm whose encoder stays")
+    ap.add_argument("--data", required=True, help="a make_dataset.py folder")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--val-panos", type=int, default=0)
+    ap.add_argument("--epochs", type=int, default=30)
+    ap.add_argument("--halve-every", type=int, default=10)
+    ap.add_argument("--lr", type=float, default=1e-3)
+    ap.add_argument("--batch", type=int, default=16)
+    ap.add_argument("--w-primary", type=float, default=1.0)
+    ap.add_argument("--w-r", type=float, default=20.0)
+    ap.add_argument("--w-a", type=float, default=1.0)
+    ap.add_argument("--w-d1", type=float, default=20.0)
+    ap.add_argument("--step2-epochs", type=int, default=0)
+    ap.add_argument("--step2-scenes", choices=("indoor", "all"), default="indoor")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--work", help="cache and checkpoint folder (default OUT.heads/)")
+    ap.add_argument("--log", help="append one line per epoch here too")
+    ap.add_argument("--force", action="store_true", help="replace an existing --out")
+    args = ap.parse_args(argv)
+
+    def log(text):
+        line = f"{time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())} {text}"
+        print(line, flush=True)
+        if args.log:
+            with open(args.log, "a", encoding="utf-8") as f:
+                f.write(line + "\n")
+
+    try:
+        for name, v, lo in (("--epochs", args.epochs, 0), ("--halve-every", args.halve_every, 1),
+                            ("--batch", args.batch, 1), ("--val-panos", args.val_panos, 0),
+                            ("--step2-epochs", args.step2_epochs, 0),
+                            ("--threads", args.threads, 1)):
+            if v < lo:
+                raise ValueError(f"{name} {v}: expected >= {lo}")
+        for name, v in (("--w-primary", args.w_primary), ("--w-r", args.w_r),
+                        ("--w-a", args.w_a), ("--w-d1", args.w_d1)):
+            if not (v >= 0 and math.isfinite(v)):
+                raise ValueError(f"{name} {v}: expected a weight >= 0")
+        if not (args.lr > 0 and math.isfinite(args.lr)):
+            raise ValueError(f"--lr {args.lr}: expected a positive number")
+        if os.path.lexists(args.out) and not args.force:
+            raise ValueError(f"{args.out} exists; not replacing it (use --force)")
+        torch.set_num_threads(args.threads)
+        meta, tensors, _ = plm.read_plm(args.model)
+        if meta.get("arch") != "densenet121-parametric" or meta.get("precision") != "fp32":
+            raise ValueError(f"{args.model}: {meta.get('arch')} {meta.get('precision')}: expected "
+                             "a float densenet121-parametric model (retrain the float model, then "
+                             "quantise)")
+        n = int(meta["n_lights"])
+        hw = (int(meta["input_h"]), int(meta["input_w"]))
+        if int(meta.get("bands", BANDS)) != BANDS:
+            raise ValueError(f"{args.model}: bands {meta.get('bands')}, this tool pools {BANDS}")
+        t = {k: torch.from_numpy(np.array(v, dtype=np.float32)) for k, v in tensors.items()}
+        work = args.work or args.out + ".heads"
+        os.makedirs(work, exist_ok=True)
+
+        imgs, gt, val, held, digest = train.load_dataset(args.data, hw, args.val_panos,
+                                                         stream=True)
+        cfg = {"base_trunk_sha256": trunk_sha256(tensors), "data_index_sha256": digest,
+               "val_panos": args.val_panos, "epochs": args.epochs,
+               "halve_every": args.halve_every, "lr": args.lr, "batch": args.batch,
+               "w_primary": args.w_primary, "w_r": args.w_r, "w_a": args.w_a, "w_d1": args.w_d1,
+               "seed": args.seed, "threads": args.threads, "map_width": 64, "radiance": "log",
+               "sphere_truth": "lights", "step2_loss": "render", "w_d": 1.0,
+               "sphere_metric": "log", "step2_scenes": args.step2_scenes}
+        zpath = os.path.join(work, "z.pt")
+        key = [cfg["base_trunk_sha256"], digest, list(hw)]
+        z = None
+        if os.path.exists(zpath):
+            zc = torch.load(zpath, weights_only=False)
+            if zc.get("key") == key:
+                z = zc["z"]
+        if z is None:
+            log(f"latents of {len(imgs)} crops and their mirrors through {args.model}'s encoder")
+            z = latents(t, imgs, log=log)
+            torch.save({"key": key, "z": z}, zpath + ".tmp")
+            os.replace(zpath + ".tmp", zpath)
+
+        net = ParLightNet(n, hw)
+        for name in TRAINED + ("head_dist.fc1", "head_dist.fc2"):
+            lin = net.get_submodule(name)
+            lin.weight.data.copy_(t[f"{name}.weight"])
+            lin.bias.data.copy_(t[f"{name}.bias"])
+        params = [p for name in TRAINED for p in net.get_submodule(name).parameters()]
+        opt = torch.optim.Adam(params, lr=args.lr, betas=(0.9, 0.999))
+        epoch, epoch2 = 0, 0
+        last = os.path.join(work, "last.pt")
+        if os.path.exists(last):
+            ck = torch.load(last, weights_only=False)
+            diff = [k for k in RESUME_KEYS if ck["config"].get(k) != cfg[k]]
+            if diff:
+                raise ValueError(f"{last}: made with another configuration ({', '.join(diff)} "
+                                 "differ); use another --work folder")
+            net.load_state_dict(ck["net"])
+            epoch, epoch2 = ck["epoch"], ck.get("step2_epoch", 0)
+            if epoch2 == 0:
+                opt.load_state_dict(ck["optimizer"])
+            if epoch2 and ck["config"].get("step2_scenes") != cfg["step2_scenes"]:
+                raise ValueError(f"{last}: its step 2 trains on {ck['config'].get('step2_scenes')} "
+                                 "crops; use another --work folder")
+            log(f"resumed {last} at epoch {epoch}" + (f", step 2 epoch {epoch2}" if epoch2 else ""))
+            if epoch2 and epoch < args.epochs:
+                raise ValueError(f"{last}: step 2 has started after {epoch} step-1 epochs; "
+                                 f"--epochs {args.epochs} would go back to step 1")
+
+        udirs = sg.equirect_dirs(cfg["map_width"])
+        render = (udirs, sg.diffuse_operator(cfg["map_width"], sg.sphere_normals(16)), None, None)
+        m = len(imgs)
+        with torch.no_grad():      # the truth's maps, of each crop and of its mirror
+            gms = [torch.cat([train.gt_map(train.flip_gt(train.take(gt, j), torch.full(
+                (len(j),), bool(f))), udirs, cfg) for j in torch.arange(m).split(256)])
+                for f in (0, 1)]
+        tr = torch.nonzero(~val).flatten()
+        va = torch.nonzero(val).flatten()
+        indoor = ~train.crop_outdoor(args.data)
+        if len(tr) < args.batch:
+            raise ValueError(f"{len(tr)} training crops: fewer than one batch of {args.batch}")
+        if epoch == 0:
+            log(f"start: {len(tr)} train + {len(va)} val crops (held out {held}), base "
+                f"{args.model}, config {json.dumps(cfg)}")
+
+        def validate(step=1):
+            if len(va) == 0:
+                return ""
+            with torch.no_grad():
+                g = train.take(gt, va)
+                o = forward(net, z[0][va])
+                loss = float(train.step1_loss(o, g, udirs, cfg, render, gms[0][va])[0] if step == 1
+                             else train.step2_loss(o, g, cfg, render)[0])
+                a, has = primary_angles(o, g)
+                ind = indoor[va][has]
+                return (f" | val loss {loss:.5g}, primary angle median {a.median():.1f} deg"
+                        + (f" (indoor {a[ind].median():.1f})" if ind.any() else ""))
+
+        while epoch < args.epochs:
+            for grp in opt.param_groups:
+                grp["lr"] = args.lr * 0.5 ** (epoch // args.halve_every)
+            gen = torch.Generator().manual_seed(args.seed * 100003 + epoch)
+            perm = tr[torch.randperm(len(tr), generator=gen)]
+            flips = torch.rand(len(tr), generator=gen) < 0.5
+            t0, sums, nb = time.time(), {}, 0
+            for b in range(0, len(tr) - args.batch + 1, args.batch):
+                j, fl = perm[b:b + args.batch], flips[b:b + args.batch]
+                g = train.flip_gt(train.take(gt, j), fl)
+                o = forward(net, torch.where(fl[:, None], z[1][j], z[0][j]))
+                gm = torch.where(fl.view(-1, 1, 1, 1), gms[1][j], gms[0][j])
+                loss, parts = train.step1_loss(o, g, udirs, cfg, render, gm)
+                if not torch.isfinite(loss):
+                    raise RuntimeError(f"epoch {epoch} batch {b // args.batch}: loss {float(loss)}")
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                opt.step()
+                for k, v in [("loss", float(loss))] + list(parts.items()):
+                    sums[k] = sums.get(k, 0.0) + v
+                nb += 1
+            epoch += 1
+            log(f"epoch {epoch}/{args.epochs} lr {opt.param_groups[0]['lr']:.3g} "
+                + " ".join(f"{k} {v / nb:.5g}" for k, v in sums.items())
+                + f" ({time.time() - t0:.0f} s){validate()}")
+            torch.save({"config": cfg, "net": net.state_dict(), "optimizer": opt.state_dict(),
+                        "epoch": epoch}, last + ".tmp")
+            os.replace(last + ".tmp", last)
+
+        # step 2 (train.py's, --step2-loss render): fc and directions frozen
+        tr2 = tr[indoor[tr]] if args.step2_scenes == "indoor" else tr
+        if args.step2_epochs > epoch2 and len(tr2) < args.batch:
+            raise ValueError(f"{len(tr2)} {args.step2_scenes} training crops: fewer than one "
+                             f"batch of {args.batch}")
+        params2 = [p for name in ("head_size", "head_rgb", "head_ambient")
+                   for p in net.get_submodule(name).parameters()]
+        opt2 = torch.optim.Adam(params2, lr=args.lr, betas=(0.9, 0.999))
+        if epoch2 and os.path.exists(last):
+            opt2.load_state_dict(torch.load(last, weights_only=False)["optimizer"])
+        with torch.no_grad():
+            h_all = [F.relu(net.fc(z[f])) for f in (0, 1)]
+            d_all = [F.normalize(net.head_dir(h_all[f]).view(-1, n, 3), dim=-1) for f in (0, 1)]
+        while epoch2 < args.step2_epochs:
+            for grp in opt2.param_groups:
+                grp["lr"] = args.lr * 0.5 ** (epoch2 // args.halve_every)
+            gen = torch.Generator().manual_seed(args.seed * 100003 + 50000 + epoch2)
+            perm = tr2[torch.randperm(len(tr2), generator=gen)]
+            flips = torch.rand(len(tr2), generator=gen) < 0.5
+            t0, sums, nb = time.time(), {}, 0
+            for b in range(0, len(tr2) - args.batch + 1, args.batch):
+                j, fl = perm[b:b + args.batch], flips[b:b + args.batch]
+                g = train.flip_gt(train.take(gt, j), fl)
+                h = torch.where(fl[:, None], h_all[1][j], h_all[0][j])
+                o = {"dir": torch.where(fl[:, None, None], d_all[1][j], d_all[0][j]),
+                     "size": F.softplus(net.head_size(h)),
+                     "rgb": F.softplus(net.head_rgb(h)).view(-1, n, 3),
+                     "ambient": F.softplus(net.head_ambient(h))}
+                loss, parts = train.step2_loss(o, g, cfg, render)
+                if not torch.isfinite(loss):
+                    raise RuntimeError(f"step 2 epoch {epoch2} batch {b // args.batch}: loss "
+                                       f"{float(loss)}")
+                opt2.zero_grad(set_to_none=True)
+                loss.backward()
+                opt2.step()
+                for k, v in [("loss", float(loss))] + list(parts.items()):
+                    sums[k] = sums.get(k, 0.0) + v
+                nb += 1
+            epoch2 += 1
+            log(f"step 2 epoch {epoch2}/{args.step2_epochs} lr {opt2.param_groups[0]['lr']:.3g} "
+                + " ".join(f"{k} {v / nb:.5g}" for k, v in sums.items())
+                + f" ({time.time() - t0:.0f} s){validate(2)}")
+            torch.save({"config": cfg, "net": net.state_dict(), "optimizer": opt2.state_dict(),
+                        "epoch": epoch, "step2_epoch": epoch2}, last + ".tmp")
+            os.replace(last + ".tmp", last)
+
+        out_t = dict(tensors)
+        for name in TRAINED:
+            lin = net.get_submodule(name)
+            out_t[f"{name}.weight"] = lin.weight.detach().numpy().astype(np.float32)
+            out_t[f"{name}.bias"] = lin.bias.detach().numpy().astype(np.float32)
+        meta = dict(meta)
+        meta["provenance"] = (meta.get("provenance", "") + f"; fc and heads retrained by "
+                              f"tools/train/heads.py on the frozen encoder: data index sha256 "
+                              f"{digest[:16]}, {len(tr)} crops, {args.epochs} epochs, w_primary "
+                              f"{args.w_primary}, val_panos {args.val_panos}, step 2 "
+                              f"{args.step2_epochs} epochs on {args.step2_scenes} crops")
+        size = plm.write_plm(args.out, meta, [(k, np.asarray(v, np.float32))
+                                              for k, v in out_t.items()], force=args.force)
+        log(f"wrote {args.out} ({size:,} bytes)")
+    except (OSError, ValueError, RuntimeError, plm.PlmError) as e:
+        print(f"heads: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
