@@ -68,8 +68,8 @@ included.
 Direction first (not in the paper; off by default): --w-primary W adds W times primary_loss in
 step 1, the angular error of the primary light (the one pl_lighting_primary reports and an AR app
 casts shadows from), which neither the map's nor the sphere's L2 measures. tools/train/heads.py
-trains the fc and heads of a finished .plm with it on the frozen encoder, which is how the shipped
-network got it.
+trains the fc and heads of a finished .plm with it on the frozen encoder (measured, not shipped:
+MODEL_CARD.md, "Direction first").
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
