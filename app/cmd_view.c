@@ -33,14 +33,14 @@ static void usage(FILE *f)
             "  --port P        port, 0..65535 (default 8080; 0: a free one, printed)\n"
             "  --host H        address to listen on (default 127.0.0.1: this machine only;\n"
             "                  0.0.0.0 for every interface: anyone who can reach it may watch)\n"
-            "  --www DIR       the viewer's folder (default %s)\n"
+            "  --www DIR       the viewer's folder (default: app/viewer of the source tree\n"
+            "                  parlight was built in)\n"
             "\n"
             "It adds --thumb 160 (the page shows the camera frame). With --input, view\n"
             "replays it for ever (--loop --realtime) and a directory at one frame per 500 ms\n"
             "(--frame-interval 500), each unless given. Any other\n"
             "option is parlight estimate's (parlight estimate --help): --out adds sinks,\n"
-            "--wait-clients N waits for N pages before the first frame, --token-file F.\n",
-            PL_VIEWER_DIR);
+            "--wait-clients N waits for N pages before the first frame, --token-file F.\n");
 }
 
 static int has_flag(int argc, char **argv, const char *flag)
