@@ -25,11 +25,15 @@ import base64
 import io
 import json
 import math
+import os
 import subprocess
 import sys
 
 import numpy as np
 from PIL import Image
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+from rgbe import read_rgbe  # noqa: E402
 
 SPHERE_RMS = 0.01
 SPHERE_MAX = 0.03
@@ -52,47 +56,6 @@ def fail(msg):
 def srgb_to_linear(u8):
     v = u8.astype(np.float64) / 255.0
     return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
-
-
-def read_rgbe(path):
-    """Radiance .hdr (new-style RLE or flat) as float32 H x W x 3."""
-    with open(path, "rb") as f:
-        data = f.read()
-    pos = 0
-    while True:
-        end = data.index(b"\n", pos)
-        line = data[pos:end]
-        pos = end + 1
-        if line == b"":
-            break
-    end = data.index(b"\n", pos)
-    dims = data[pos:end].split()
-    pos = end + 1
-    assert dims[0] == b"-Y" and dims[2] == b"+X", dims
-    h, w = int(dims[1]), int(dims[3])
-    out = np.zeros((h, w, 4), np.uint8)
-    for y in range(h):
-        if w >= 8 and w < 32768 and data[pos] == 2 and data[pos + 1] == 2:
-            pos += 4
-            for c in range(4):
-                x = 0
-                while x < w:
-                    n = data[pos]
-                    pos += 1
-                    if n > 128:
-                        n -= 128
-                        out[y, x:x + n, c] = data[pos]
-                        pos += 1
-                    else:
-                        out[y, x:x + n, c] = np.frombuffer(data, np.uint8, n, pos)
-                        pos += n
-                    x += n
-        else:
-            out[y] = np.frombuffer(data, np.uint8, 4 * w, pos).reshape(w, 4)
-            pos += 4 * w
-    e = out[..., 3].astype(np.int32)
-    scale = np.where(e > 0, np.ldexp(1.0, e - 136), 0.0)
-    return out[..., :3].astype(np.float64) * scale[..., None]
 
 
 def main():
