@@ -208,7 +208,7 @@ build/models/seeded-n%.plm: tools/export.py tools/model.py tools/plm.py
 
 .PHONY: all deps demo test tests clean format-check test-camera bench fuzz fuzz-build FORCE \
         install uninstall
-all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO) $(SHLIB_ALL)
+all: $(CLI) tests $(BUILD)/features $(PLUGIN_SO) $(SHLIB_ALL) $(BUILD)/tools/zdump
 
 # The optional libraries this build has, one word each (tests/run.sh skips the tests that need
 # a missing one); rewritten only when the list changes.
@@ -300,6 +300,11 @@ $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/repla
 # linked by the C++ driver: UBSan's C++ checks in port/exr_io.cpp need its C++ runtime
 $(BUILD)/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(LIB)
 	$(CXX) $(CXXFLAGS) $(LDFLAGS) -fsanitize=fuzzer -o $@ $< $(LIB) $(LDLIBS)
+
+# The int8 (or float) executor's latent z of a list of frames, for tools/train/heads.py --int8
+$(BUILD)/tools/zdump: $(BUILD)/obj/tools/train/zdump.o $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
 
 # The camera rig's userspace UVC webcam (tools/camrig/uvc-gadget.c; built by tools/camrig/build.sh)
 $(BUILD)/tools/uvc-gadget: $(BUILD)/obj/tools/camrig/uvc-gadget.o $(LIB)

@@ -89,16 +89,18 @@ ln -s "$P/${held#panos/}" "$V/"
 "$PY" tools/train/fit_anchor.py "$TMP/raw.json" --write "$TMP/m.plm" "$TMP/ma.plm" \
     >"$TMP/a.log" 2>&1 || fail "fit_anchor.py: $(cat "$TMP/a.log")"
 "$BUILD/parlight" info --model "$TMP/ma.plm" | grep -q "anchor" || fail "no anchor in the model"
-# direction first: fc and heads retrained on the frozen encoder with the primary-light loss; a
-# run stopped after epoch 1 and rerun ends with the same bytes as one run of 2 epochs (the
-# cached latents reused from another work folder)
+# direction first: fc and heads retrained on the frozen encoder with the primary-light loss and
+# noise on z, then one step-2 epoch; a run stopped after epoch 1 and rerun ends with the same
+# bytes as one uninterrupted run (the cached latents reused from another work folder, the noise
+# a function of seed and epoch)
 HD=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-panos 1 --batch 4
-    --threads 1 --epochs 2)
+    --threads 1 --epochs 2 --step2-epochs 1 --z-noise 0.05)
 "${HD[@]}" --out "$TMP/mh.plm" --work "$TMP/hw" >"$TMP/h.log" 2>&1 ||
     fail "heads.py: $(cat "$TMP/h.log")"
 grep -q "primary angle median" "$TMP/h.log" || fail "heads.py: no validation angle logged"
+grep -q "step 2 epoch 1/1" "$TMP/h.log" || fail "heads.py: no step-2 epoch logged"
 mkdir -p "$TMP/hw2" && cp "$TMP/hw/z.pt" "$TMP/hw2/"
-"${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --epochs 1 >"$TMP/h2.log" 2>&1 &&
+"${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --epochs 1 --step2-epochs 0 >"$TMP/h2.log" 2>&1 &&
     "${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --force >>"$TMP/h2.log" 2>&1 ||
     fail "heads.py resume: $(cat "$TMP/h2.log")"
 grep -q "latents of" "$TMP/h2.log" && fail "heads.py recomputed the cached latents"
@@ -107,6 +109,11 @@ cmp -s "$TMP/mh.plm" "$TMP/mh2.plm" || fail "heads.py: resumed run differs from 
 "${HD[@]}" --out "$TMP/mh.plm" --work "$TMP/hw" >"$TMP/h3.log" 2>&1 &&
     fail "heads.py replaced an existing model without --force"
 grep -q "use --force" "$TMP/h3.log" || fail "heads.py: no reason: $(cat "$TMP/h3.log")"
+"${HD[@]}" --out "$TMP/mh3.plm" --work "$TMP/hw" --z-noise 0.1 >"$TMP/h4.log" 2>&1 &&
+    fail "heads.py resumed a checkpoint made with another --z-noise"
+grep -q "z_noise" "$TMP/h4.log" || fail "heads.py: no reason: $(cat "$TMP/h4.log")"
+"${HD[@]}" --out "$TMP/mh3.plm" --z-noise 3 >"$TMP/h4.log" 2>&1 && fail "heads.py took --z-noise 3"
+grep -q -- "--z-noise 3" "$TMP/h4.log" || fail "heads.py: no reason: $(cat "$TMP/h4.log")"
 "$PY" - "$TMP/ma.plm" "$TMP/mh.plm" <<'EOF' || fail "heads.py changed more than fc and heads"
 import sys
 sys.path.insert(0, "tools")
@@ -122,13 +129,56 @@ assert {k: v for k, v in ma.items() if k != "provenance"} == \
     {k: v for k, v in mh.items() if k != "provenance"}, "metadata (the anchor) changed"
 assert "heads.py" in mh["provenance"]
 EOF
-echo "heads.py (frozen encoder, primary-light loss): resumes bit-identically, changes only fc and heads"
+echo "heads.py (frozen encoder, primary-light loss, z noise, step 2): resumes bit-identically," \
+    "changes only fc and heads"
 mkdir -p "$TMP/calib"
 "$BUILD/parlight" crop --hdr "$H/train/comfy_cafe.hdr" --batch 4 --out-dir "$TMP/calib" \
     --format jpg >/dev/null || fail "calibration frames"
 rm -f "$TMP"/calib/*.json
 "$BUILD/parlight" quantize --model "$TMP/mh.plm" --calib "$TMP/calib" --out "$TMP/m8.plm" \
     >"$TMP/q.log" 2>&1 || fail "parlight quantize: $(cat "$TMP/q.log")"
+# heads trained half on the int8 executor's latents (zdump): m8's trunk is ma's, quantised
+"$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --int8 "$TMP/m8.plm" \
+    --zdump "$BUILD/tools/zdump" --batch 4 --threads 1 --epochs 1 --out "$TMP/mq.plm" \
+    --work "$TMP/hq" >"$TMP/hq.log" 2>&1 || fail "heads.py --int8: $(cat "$TMP/hq.log")"
+grep -q "int8 latents done" "$TMP/hq.log" || fail "heads.py --int8: no int8 latents computed"
+"$PY" - "$TMP/hq" <<'EOF' || fail "heads.py --int8: the int8 latents are not the float ones + int8 error"
+import sys, torch
+z = torch.load(sys.argv[1] + "/z.pt", weights_only=False)["z"]
+z8 = torch.load(sys.argv[1] + "/z8.pt", weights_only=False)["z"]
+assert z8.shape == z.shape and bool(torch.isfinite(z8).all()), (z8.shape, z.shape)
+for f in (0, 1):     # a model trained 2 epochs on 12 crops and calibrated on 4 frames: coarse
+    err = float((z8[f] - z[f]).norm() / z[f].norm())
+    assert 0 < err < 0.5, (f, err)
+EOF
+# zdump of the float model is PyTorch's z, crop for crop and mirror for mirror (the C executor
+# within 1e-3 of PyTorch's, tools/train/check_export.py)
+tail -n +2 "$TMP/data/index.tsv" | cut -f1 | sed "s|^|$TMP/data/|" >"$TMP/zl.txt"
+"$BUILD/tools/zdump" "$TMP/ma.plm" "$TMP/zl.txt" "$TMP/zf.f32" 1 || fail "zdump of the float model"
+"$PY" - "$TMP/hq" "$TMP/zf.f32" <<'EOF' || fail "zdump's float z is not PyTorch's"
+import sys, numpy as np, torch
+z = torch.load(sys.argv[1] + "/z.pt", weights_only=False)["z"].numpy()
+c = np.fromfile(sys.argv[2], np.float32).reshape(z.shape[1], 2, z.shape[2]).transpose(1, 0, 2)
+for f in (0, 1):
+    err = np.linalg.norm(c[f] - z[f]) / np.linalg.norm(z[f])
+    other = np.linalg.norm(c[f] - z[1 - f]) / np.linalg.norm(z[f])
+    assert err < 0.02 and other > 2 * err, (f, err, other)
+EOF
+"$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --int8 "$TMP/ma.plm" \
+    --epochs 1 --out "$TMP/mq2.plm" --work "$TMP/hq2" >"$TMP/hq2.log" 2>&1 &&
+    fail "heads.py took a float model as --int8"
+grep -q "expected int8" "$TMP/hq2.log" || fail "heads.py --int8 float: $(cat "$TMP/hq2.log")"
+ls "$TMP"/calib/*.jpg | head -n 1 >"$TMP/zl.txt" && echo "$TMP/missing.png" >>"$TMP/zl.txt"
+"$BUILD/tools/zdump" "$TMP/m8.plm" "$TMP/zl.txt" "$TMP/z.f32" 2>"$TMP/zd.err" &&
+    fail "zdump took a missing image"
+grep -q "line 2: .*missing.png" "$TMP/zd.err" || fail "zdump: no reason: $(cat "$TMP/zd.err")"
+[ -e "$TMP/z.f32" ] && fail "zdump left a partial output"
+echo x >"$TMP/z.f32"
+"$BUILD/tools/zdump" "$TMP/m8.plm" "$TMP/zl.txt" "$TMP/z.f32" 2>"$TMP/zd.err" &&
+    fail "zdump replaced an existing file"
+[ "$(cat "$TMP/z.f32")" = x ] && grep -q "not replacing" "$TMP/zd.err" ||
+    fail "zdump: existing output: $(cat "$TMP/zd.err")"
+echo "heads.py --int8 (latents by zdump): cached, close to the float ones; zdump refuses bad input"
 "$PY" tools/train/fit_ridge.py --data "$TMP/data" --val-panos 1 --out "$TMP/ridge.json" \
     >"$TMP/r.log" 2>&1 || fail "fit_ridge.py on a --panos dataset: $(cat "$TMP/r.log")"
 for m in ma mh m8; do

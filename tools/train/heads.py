@@ -5,7 +5,8 @@ first", issue 21).
     tools/train/heads.py --model BASE.plm --data DATASET --out OUT.plm
                          [--val-panos 0] [--epochs 30] [--halve-every 10] [--lr 1e-3]
                          [--batch 16] [--w-primary 1] [--w-r 20] [--w-a 1] [--w-d1 20]
-                         [--step2-epochs 0] [--step2-scenes indoor|all]
+                         [--step2-epochs 0] [--step2-scenes indoor|all] [--z-noise 0]
+                         [--int8 INT8.plm [--zdump build/tools/zdump]]
                          [--seed 1] [--threads 2] [--work DIR] [--log FILE] [--force]
 
 The DenseNet part of BASE (its folded tensors, exactly what the C executor runs: export.py
@@ -19,11 +20,29 @@ step-1 term trains it). A linear probe on the frozen z of a network trained with
 finds the primary light 12 degrees closer than that network's own heads on held-out rooms
 (MODEL_CARD.md, "Direction first"): the cue is in z, the heads had not been asked for it.
 
---epochs 0 skips to step 2. --step2-epochs N then runs train.py's step 2 of the shipped recipe (--step2-loss render) on the
-same latents: the fc and the direction head frozen, the size, colour and ambient heads trained on
-the diffuse sphere's L2 and the ambient's, on the indoor crops (--step2-scenes indoor, the
-default) for N epochs, the learning rate restarting at --lr. The primary light can still change
-in it (energies move), so the validation angle is logged there too.
+--epochs 0 skips to step 2. --step2-epochs N then runs train.py's step 2 of the shipped recipe
+(--step2-loss render) on the same latents: the fc and the direction head frozen, the size,
+colour and ambient heads trained on the diffuse sphere's L2 and the ambient's, on the indoor
+crops (--step2-scenes indoor, the default) for N epochs, the learning rate restarting at --lr.
+The primary light can still change in it (energies move), so the validation angle is logged
+there too.
+
+--z-noise S trains both steps on z + S * rms(z) * N(0, 1), fresh noise in every batch: heads
+that read z through large, finely balanced weights amplify the int8 encoder's error in z (its
+SQNR is about 28 dB, noise near 4% of z's rms; `parlight qcheck` lists it as layer z), and the
+int8 twin then misses the targets that the float model's own noise floor would meet. Noise a
+little above that level in training asks the heads for a direction that survives it; measured,
+it was not enough (0.06 on the shipped network: MODEL_CARD, "Direction first"); --int8
+trains on the int8 error itself.
+
+--int8 INT8.plm trains both steps on the int8 executor's own latents half of the time: each
+crop of a batch reads, with probability 1/2, z as INT8.plm computes it (build/tools/zdump,
+tools/train/zdump.c; cached in the work folder as z8.pt, keyed by INT8.plm's sha256) instead of
+the float one. INT8.plm must be BASE's trunk quantised the way the result will be (same
+`parlight quantize` command and calibration frames): the fc is kept float there, so the trunk's
+int8 error in z does not depend on the heads, and heads trained on it learn to read z through
+that error. Gaussian noise (--z-noise) is a weaker stand-in: the int8 error is correlated across
+z's values, independent noise is mostly averaged away by the fc.
 
 OUT is BASE with those five layers replaced: same trunk bytes, same metadata (the intensity
 anchor included), the provenance extended. Quantise it as any float model (parlight quantize).
@@ -42,6 +61,7 @@ import hashlib
 import json
 import math
 import os
+import subprocess
 import sys
 import time
 
@@ -61,7 +81,7 @@ from model import BANDS, ParLightNet  # noqa: E402
 TRAINED = ("fc", "head_dir", "head_size", "head_rgb", "head_ambient")
 # what must match for last.pt to resume (--epochs may grow: the schedule depends on the epoch only)
 RESUME_KEYS = ("base_trunk_sha256", "data_index_sha256", "val_panos", "halve_every",
-               "lr", "batch", "w_primary", "w_r", "w_a", "w_d1", "seed")
+               "lr", "batch", "w_primary", "w_r", "w_a", "w_d1", "seed", "z_noise", "int8_sha256")
 
 
 def trunk_sha256(tensors):
@@ -88,6 +108,48 @@ def latents(t, imgs, bs=64, log=None):
             if log and (i // bs) % 20 == 0:
                 log(f"latents {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
     return z
+
+
+def int8_latents(args, work, digest, m, d, log):
+    """z8 [2, m, d] of the dataset's crops and mirrors through args.int8 (zdump), cached in
+    work/z8.pt; and the int8 file's sha256."""
+    with open(args.int8, "rb") as f:
+        sha = hashlib.sha256(f.read()).hexdigest()
+    meta, _, _ = plm.read_plm(args.int8)
+    if meta.get("precision") != "int8":
+        raise ValueError(f"--int8 {args.int8}: precision {meta.get('precision')}, expected int8")
+    path = os.path.join(work, "z8.pt")
+    key = [sha, digest]
+    if os.path.exists(path):
+        zc = torch.load(path, weights_only=False)
+        if zc.get("key") == key:
+            return zc["z"], sha
+    if not os.access(args.zdump, os.X_OK):
+        raise ValueError(f"--zdump {args.zdump}: not an executable (make builds build/tools/zdump)")
+    rows = train.read_index(args.data)
+    if len(rows) != m:
+        raise ValueError(f"{args.data}: {len(rows)} index rows, {m} crops loaded")
+    lst, raw = os.path.join(work, "z8.list"), os.path.join(work, "z8.f32")
+    with open(lst, "w", encoding="utf-8") as f:
+        f.writelines(os.path.join(os.path.abspath(args.data), r[0]) + "\n" for r in rows)
+    if os.path.exists(raw):
+        os.remove(raw)
+    log(f"int8 latents of {m} crops and their mirrors through {args.int8} ({args.zdump})")
+    t0 = time.time()
+    r = subprocess.run([args.zdump, args.int8, lst, raw, str(args.threads)],
+                       stderr=subprocess.PIPE, text=True, check=False)
+    if r.returncode != 0:
+        raise RuntimeError(f"zdump: {r.stderr.strip()}")
+    a = np.fromfile(raw, np.float32)
+    if a.size != 2 * m * d:
+        raise RuntimeError(f"zdump wrote {a.size} values, expected 2 x {m} x {d}")
+    z8 = torch.from_numpy(a.reshape(m, 2, d).transpose(1, 0, 2).copy())
+    torch.save({"key": key, "z": z8}, path + ".tmp")
+    os.replace(path + ".tmp", path)
+    os.remove(raw)
+    os.remove(lst)
+    log(f"int8 latents done ({time.time() - t0:.0f} s)")
+    return z8, sha
 
 
 def forward(net, z):
@@ -125,6 +187,12 @@ def main(argv=None):
     ap.add_argument("--w-d1", type=float, default=20.0)
     ap.add_argument("--step2-epochs", type=int, default=0)
     ap.add_argument("--step2-scenes", choices=("indoor", "all"), default="indoor")
+    ap.add_argument("--z-noise", type=float, default=0.0,
+                    help="train on z plus this much Gaussian noise, relative to z's rms")
+    ap.add_argument("--int8", help="train half of the time on this int8 model's latents")
+    ap.add_argument("--zdump", default=os.path.join(os.path.dirname(os.path.dirname(HERE)),
+                                                    "build", "tools", "zdump"),
+                    help="the zdump program (default: build/tools/zdump of this checkout)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", help="cache and checkpoint folder (default OUT.heads/)")
@@ -150,6 +218,8 @@ def main(argv=None):
                         ("--w-a", args.w_a), ("--w-d1", args.w_d1)):
             if not (v >= 0 and math.isfinite(v)):
                 raise ValueError(f"{name} {v}: expected a weight >= 0")
+        if not (0 <= args.z_noise <= 1):
+            raise ValueError(f"--z-noise {args.z_noise}: expected 0..1 (relative to z's rms)")
         if not (args.lr > 0 and math.isfinite(args.lr)):
             raise ValueError(f"--lr {args.lr}: expected a positive number")
         if os.path.lexists(args.out) and not args.force:
@@ -174,7 +244,9 @@ def main(argv=None):
                "val_panos": args.val_panos, "epochs": args.epochs,
                "halve_every": args.halve_every, "lr": args.lr, "batch": args.batch,
                "w_primary": args.w_primary, "w_r": args.w_r, "w_a": args.w_a, "w_d1": args.w_d1,
-               "seed": args.seed, "threads": args.threads, "map_width": 64, "radiance": "log",
+               "seed": args.seed, "z_noise": args.z_noise, "int8_sha256": None,
+               "threads": args.threads,
+               "map_width": 64, "radiance": "log",
                "sphere_truth": "lights", "step2_loss": "render", "w_d": 1.0,
                "sphere_metric": "log", "step2_scenes": args.step2_scenes}
         zpath = os.path.join(work, "z.pt")
@@ -190,6 +262,10 @@ def main(argv=None):
             torch.save({"key": key, "z": z}, zpath + ".tmp")
             os.replace(zpath + ".tmp", zpath)
 
+        z8 = None
+        if args.int8:
+            z8, cfg["int8_sha256"] = int8_latents(args, work, digest, len(imgs), z.shape[2], log)
+
         net = ParLightNet(n, hw)
         for name in TRAINED + ("head_dist.fc1", "head_dist.fc2"):
             lin = net.get_submodule(name)
@@ -201,7 +277,8 @@ def main(argv=None):
         last = os.path.join(work, "last.pt")
         if os.path.exists(last):
             ck = torch.load(last, weights_only=False)
-            diff = [k for k in RESUME_KEYS if ck["config"].get(k) != cfg[k]]
+            old = {"z_noise": 0.0, "int8_sha256": None, **ck["config"]}   # older checkpoints
+            diff = [k for k in RESUME_KEYS if old.get(k) != cfg[k]]
             if diff:
                 raise ValueError(f"{last}: made with another configuration ({', '.join(diff)} "
                                  "differ); use another --work folder")
@@ -227,6 +304,14 @@ def main(argv=None):
         tr = torch.nonzero(~val).flatten()
         va = torch.nonzero(val).flatten()
         indoor = ~train.crop_outdoor(args.data)
+        z_sd = args.z_noise * float(z[0][tr].square().mean().sqrt()) if len(tr) else 0.0
+
+        def noisy(zb, gen):
+            """zb plus the --z-noise Gaussian (a function of the generator's state)."""
+            if z_sd == 0:
+                return zb
+            return zb + z_sd * torch.randn(zb.shape, generator=gen)
+
         if len(tr) < args.batch:
             raise ValueError(f"{len(tr)} training crops: fewer than one batch of {args.batch}")
         if epoch == 0:
@@ -246,34 +331,56 @@ def main(argv=None):
                 return (f" | val loss {loss:.5g}, primary angle median {a.median():.1f} deg"
                         + (f" (indoor {a[ind].median():.1f})" if ind.any() else ""))
 
-        while epoch < args.epochs:
-            for grp in opt.param_groups:
-                grp["lr"] = args.lr * 0.5 ** (epoch // args.halve_every)
-            gen = torch.Generator().manual_seed(args.seed * 100003 + epoch)
-            perm = tr[torch.randperm(len(tr), generator=gen)]
-            flips = torch.rand(len(tr), generator=gen) < 0.5
-            t0, sums, nb = time.time(), {}, 0
-            for b in range(0, len(tr) - args.batch + 1, args.batch):
-                j, fl = perm[b:b + args.batch], flips[b:b + args.batch]
-                g = train.flip_gt(train.take(gt, j), fl)
-                o = forward(net, torch.where(fl[:, None], z[1][j], z[0][j]))
-                gm = torch.where(fl.view(-1, 1, 1, 1), gms[1][j], gms[0][j])
-                loss, parts = train.step1_loss(o, g, udirs, cfg, render, gm)
-                if not torch.isfinite(loss):
-                    raise RuntimeError(f"epoch {epoch} batch {b // args.batch}: loss {float(loss)}")
-                opt.zero_grad(set_to_none=True)
-                loss.backward()
-                opt.step()
-                for k, v in [("loss", float(loss))] + list(parts.items()):
-                    sums[k] = sums.get(k, 0.0) + v
-                nb += 1
-            epoch += 1
-            log(f"epoch {epoch}/{args.epochs} lr {opt.param_groups[0]['lr']:.3g} "
-                + " ".join(f"{k} {v / nb:.5g}" for k, v in sums.items())
-                + f" ({time.time() - t0:.0f} s){validate()}")
-            torch.save({"config": cfg, "net": net.state_dict(), "optimizer": opt.state_dict(),
-                        "epoch": epoch}, last + ".tmp")
-            os.replace(last + ".tmp", last)
+        def run_epochs(step, opt, crops, done, total, batch_loss):
+            """Trains epochs done+1..total of step 1 or 2 on crops and returns total;
+            batch_loss(j, flips, gen) gives a batch's (loss, parts). An epoch's batch order,
+            flips and noise are a function of --seed, the step and the epoch; last.pt is written
+            at each epoch's end."""
+            name = "epoch" if step == 1 else "step 2 epoch"
+            while done < total:
+                for grp in opt.param_groups:
+                    grp["lr"] = args.lr * 0.5 ** (done // args.halve_every)
+                gen = torch.Generator().manual_seed(args.seed * 100003 + (step - 1) * 50000 + done)
+                perm = crops[torch.randperm(len(crops), generator=gen)]
+                flips = torch.rand(len(crops), generator=gen) < 0.5
+                t0, sums, nb = time.time(), {}, 0
+                for b in range(0, len(crops) - args.batch + 1, args.batch):
+                    loss, parts = batch_loss(perm[b:b + args.batch], flips[b:b + args.batch], gen)
+                    if not torch.isfinite(loss):
+                        raise RuntimeError(f"{name} {done} batch {b // args.batch}: loss "
+                                           f"{float(loss)}")
+                    opt.zero_grad(set_to_none=True)
+                    loss.backward()
+                    opt.step()
+                    for k, v in [("loss", float(loss))] + list(parts.items()):
+                        sums[k] = sums.get(k, 0.0) + v
+                    nb += 1
+                done += 1
+                log(f"{name} {done}/{total} lr {opt.param_groups[0]['lr']:.3g} "
+                    + " ".join(f"{k} {v / nb:.5g}" for k, v in sums.items())
+                    + f" ({time.time() - t0:.0f} s){validate(step)}")
+                state = {"epoch": done} if step == 1 else {"epoch": epoch, "step2_epoch": done}
+                torch.save({"config": cfg, "net": net.state_dict(), "optimizer": opt.state_dict(),
+                            **state}, last + ".tmp")
+                os.replace(last + ".tmp", last)
+            return done
+
+        def z_rows(j, fl, gen):
+            """The batch's latents: mirrored where fl, the int8 ones for half of the crops
+            (--int8), plus the --z-noise noise."""
+            zb = torch.where(fl[:, None], z[1][j], z[0][j])
+            if z8 is not None:
+                q = torch.rand(len(j), generator=gen) < 0.5
+                zb = torch.where(q[:, None], torch.where(fl[:, None], z8[1][j], z8[0][j]), zb)
+            return noisy(zb, gen)
+
+        def step1_batch(j, fl, gen):
+            g = train.flip_gt(train.take(gt, j), fl)
+            o = forward(net, z_rows(j, fl, gen))
+            gm = torch.where(fl.view(-1, 1, 1, 1), gms[1][j], gms[0][j])
+            return train.step1_loss(o, g, udirs, cfg, render, gm)
+
+        epoch = run_epochs(1, opt, tr, epoch, args.epochs, step1_batch)
 
         # step 2 (train.py's, --step2-loss render): fc and directions frozen
         tr2 = tr[indoor[tr]] if args.step2_scenes == "indoor" else tr
@@ -285,41 +392,18 @@ def main(argv=None):
         opt2 = torch.optim.Adam(params2, lr=args.lr, betas=(0.9, 0.999))
         if epoch2 and os.path.exists(last):
             opt2.load_state_dict(torch.load(last, weights_only=False)["optimizer"])
-        with torch.no_grad():
-            h_all = [F.relu(net.fc(z[f])) for f in (0, 1)]
-            d_all = [F.normalize(net.head_dir(h_all[f]).view(-1, n, 3), dim=-1) for f in (0, 1)]
-        while epoch2 < args.step2_epochs:
-            for grp in opt2.param_groups:
-                grp["lr"] = args.lr * 0.5 ** (epoch2 // args.halve_every)
-            gen = torch.Generator().manual_seed(args.seed * 100003 + 50000 + epoch2)
-            perm = tr2[torch.randperm(len(tr2), generator=gen)]
-            flips = torch.rand(len(tr2), generator=gen) < 0.5
-            t0, sums, nb = time.time(), {}, 0
-            for b in range(0, len(tr2) - args.batch + 1, args.batch):
-                j, fl = perm[b:b + args.batch], flips[b:b + args.batch]
-                g = train.flip_gt(train.take(gt, j), fl)
-                h = torch.where(fl[:, None], h_all[1][j], h_all[0][j])
-                o = {"dir": torch.where(fl[:, None, None], d_all[1][j], d_all[0][j]),
-                     "size": F.softplus(net.head_size(h)),
-                     "rgb": F.softplus(net.head_rgb(h)).view(-1, n, 3),
-                     "ambient": F.softplus(net.head_ambient(h))}
-                loss, parts = train.step2_loss(o, g, cfg, render)
-                if not torch.isfinite(loss):
-                    raise RuntimeError(f"step 2 epoch {epoch2} batch {b // args.batch}: loss "
-                                       f"{float(loss)}")
-                opt2.zero_grad(set_to_none=True)
-                loss.backward()
-                opt2.step()
-                for k, v in [("loss", float(loss))] + list(parts.items()):
-                    sums[k] = sums.get(k, 0.0) + v
-                nb += 1
-            epoch2 += 1
-            log(f"step 2 epoch {epoch2}/{args.step2_epochs} lr {opt2.param_groups[0]['lr']:.3g} "
-                + " ".join(f"{k} {v / nb:.5g}" for k, v in sums.items())
-                + f" ({time.time() - t0:.0f} s){validate(2)}")
-            torch.save({"config": cfg, "net": net.state_dict(), "optimizer": opt2.state_dict(),
-                        "epoch": epoch, "step2_epoch": epoch2}, last + ".tmp")
-            os.replace(last + ".tmp", last)
+
+        def step2_batch(j, fl, gen):
+            g = train.flip_gt(train.take(gt, j), fl)
+            with torch.no_grad():
+                h = F.relu(net.fc(z_rows(j, fl, gen)))
+                d = F.normalize(net.head_dir(h).view(-1, n, 3), dim=-1)
+            o = {"dir": d, "size": F.softplus(net.head_size(h)),
+                 "rgb": F.softplus(net.head_rgb(h)).view(-1, n, 3),
+                 "ambient": F.softplus(net.head_ambient(h))}
+            return train.step2_loss(o, g, cfg, render)
+
+        run_epochs(2, opt2, tr2, epoch2, args.step2_epochs, step2_batch)
 
         out_t = dict(tensors)
         for name in TRAINED:
@@ -331,7 +415,10 @@ def main(argv=None):
                               f"tools/train/heads.py on the frozen encoder: data index sha256 "
                               f"{digest[:16]}, {len(tr)} crops, {args.epochs} epochs, w_primary "
                               f"{args.w_primary}, val_panos {args.val_panos}, step 2 "
-                              f"{args.step2_epochs} epochs on {args.step2_scenes} crops")
+                              f"{args.step2_epochs} epochs on {args.step2_scenes} crops"
+                              + (f", z noise {args.z_noise}" if args.z_noise else "")
+                              + (f", half on the latents of int8 sha256 {cfg['int8_sha256'][:16]}"
+                                 if z8 is not None else ""))
         size = plm.write_plm(args.out, meta, [(k, np.asarray(v, np.float32))
                                               for k, v in out_t.items()], force=args.force)
         log(f"wrote {args.out} ({size:,} bytes)")
