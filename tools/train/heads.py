@@ -33,7 +33,7 @@ SQNR is about 28 dB, noise near 4% of z's rms; `parlight qcheck` lists it as lay
 int8 twin then misses the targets that the float model's own noise floor would meet. Noise a
 little above that level in training asks the heads for a direction that survives it; measured,
 it was not enough (0.06 on the shipped network: MODEL_CARD, "Direction first"); --int8
-trains on the int8 error itself.
+trains on the int8 error itself, and measured, that was not enough either (same section).
 
 --int8 INT8.plm trains both steps on the int8 executor's own latents half of the time: each
 crop of a batch reads, with probability 1/2, z as INT8.plm computes it (build/tools/zdump,
