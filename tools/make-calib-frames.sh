@@ -12,7 +12,8 @@
 #                  panoramas left out above
 # Calibration and check frames therefore come from different panoramas; eval/ is never used for
 # calibration. Crops are 640x480 JPEG, N yaws 360/N apart at pitch 0, fov 60 (crop's batch
-# mode); the ground-truth JSON files are not kept. Frames are not committed.
+# mode), named <panorama>_yawNNN.jpg (pmndrs ones pmndrs-<name>_yawNNN.jpg); the ground-truth
+# JSON files are not kept. Frames are not committed.
 # Environment: BUILD (default build), PL_SHARED (default ../shared). Exit 77 when no panorama
 # source exists at all.
 set -euo pipefail
@@ -29,11 +30,23 @@ P="$BUILD/parlight"
 [ -x "$P" ] || { echo "make-calib-frames: $P not built (make BUILD=$BUILD)" >&2; exit 1; }
 mkdir -p "$OUT/calib" "$OUT/check" "$OUT/.pano" "$OUT/.tmp"
 
-crop() { # crop PANO DEST: PER crops of PANO into DEST (images only)
-    local pano=$1 dest=$2
+# Frames written by this run: a second panorama whose crops would take the same names (pmndrs's
+# "workshop" is train/workshop.hdr at half the size; a.hdr beside a.exr) must not silently replace
+# the first one's, so the pmndrs frames carry a prefix and any remaining clash is an error.
+declare -A made=()
+crop() { # crop PANO DEST [PREFIX]: PER crops of PANO into DEST (images only)
+    local pano=$1 dest=$2 prefix=${3:-} f name
     rm -rf "$OUT/.tmp"/*
     "$P" crop --hdr "$pano" --batch "$PER" --out-dir "$OUT/.tmp" --format jpg --force >/dev/null
-    mv "$OUT/.tmp"/*.jpg "$dest"/
+    for f in "$OUT/.tmp"/*.jpg; do
+        name=$prefix$(basename "$f")
+        if [ -n "${made[$dest/$name]:-}" ]; then
+            echo "make-calib-frames: $pano and ${made[$dest/$name]} both make $dest/$name" >&2
+            exit 1
+        fi
+        made[$dest/$name]=$pano
+        mv "$f" "$dest/$name"
+    done
 }
 
 have_pm=0
@@ -50,8 +63,8 @@ if [ $have_pm -eq 1 ]; then
         case $name in
             apartment|lobby) # the same scenes as eval/lebombo and eval/st_fagans_interior
                 [ $have_shared -eq 1 ] && continue
-                crop "$OUT/.pano/$name.exr" "$OUT/check"; n_chk=$((n_chk + 1)) ;;
-            *) crop "$OUT/.pano/$name.exr" "$OUT/calib"; n_cal=$((n_cal + 1)) ;;
+                crop "$OUT/.pano/$name.exr" "$OUT/check" pmndrs-; n_chk=$((n_chk + 1)) ;;
+            *) crop "$OUT/.pano/$name.exr" "$OUT/calib" pmndrs-; n_cal=$((n_cal + 1)) ;;
         esac
     done
 fi
