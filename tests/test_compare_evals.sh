@@ -1,0 +1,103 @@
+#!/usr/bin/env bash
+# tools/train/compare_evals.py, the paired comparison of two `parlight eval --json` files:
+# its counts, median effects and pooled medians on a hand-made pair whose answers are worked out
+# below; a model against itself (every effect 0, interval [0, 0]) and two models on real
+# `parlight eval --json` output of rendered panoramas (so a change of eval's JSON breaks this
+# test); files of different crops, non-eval JSON and a missing file refused with a message.
+# Models: build/models/seeded-n3*.plm (seeded: the numbers mean nothing, the pairing is tested).
+# Env: BUILD, PL_TEST_TMP (tests/run.sh). Exit 0 pass, 1 fail, 77 skip.
+set -u
+cd "$(dirname "$0")/.."
+BUILD=${BUILD:-build}
+P="$BUILD/parlight"
+PY=/usr/bin/python3
+C=tools/train/compare_evals.py
+T=${PL_TEST_TMP:-$(mktemp -d)}/compare_evals
+rm -rf "$T"
+mkdir -p "$T/panos"
+fail() { echo "FAIL: $*"; exit 1; }
+
+# --- hand-made: 2 panoramas x 2 crops -------------------------------------------------------
+# A: rmse 1 1 1 1, si 0.1 0.2 0.3 0.4, angle 10 20 30 40
+# B: rmse 0.5 2 1 1 -> lower 1, higher 1, log ratios -ln2 ln2 0 0: median 0
+#    si 0.05 0.2 0.6 0.2 -> lower 2, higher 1, log ratios -ln2 0 ln2 -ln2: median -ln2/2
+#    angle 0 20 50 40 -> lower 1, higher 1, differences -10 0 20 0: median 0
+#    pooled si medians: A 0.25, B 0.2
+"$PY" - "$T" <<'PY' || fail "could not write the hand-made files"
+import json, sys
+def f(rmse, si, ang, yaws=(0, 45)):
+    pan = []
+    for i, name in enumerate(("p1.hdr", "p2.hdr")):
+        crops = [{"yaw_deg": yaws[j], "exposure_scale": 1.0,
+                  "model": {"rmse": rmse[2 * i + j], "si_rmse": si[2 * i + j], "angle_deg": ang[2 * i + j]}}
+                 for j in range(2)]
+        pan.append({"file": name, "crops": crops})
+    return {"panoramas": pan}
+t = sys.argv[1]
+json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40]), open(f"{t}/a.json", "w"))
+json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, 50, 40]), open(f"{t}/b.json", "w"))
+json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40], yaws=(0, 90)), open(f"{t}/c.json", "w"))
+PY
+"$PY" "$C" "$T/a.json" "$T/b.json" --json >"$T/ab.json" 2>"$T/err" || fail "compare: $(cat "$T/err")"
+"$PY" - "$T/ab.json" <<'PY' || fail "hand-made pair: wrong figures ($(cat "$T/ab.json"))"
+import json, math, sys
+r = json.load(open(sys.argv[1]))["scores"]
+want = {"rmse": (1, 1, 0.0, 1.0, 1.0), "si_rmse": (2, 1, -math.log(2) / 2, 0.25, 0.2),
+        "angle_deg": (1, 1, 0.0, 25.0, 30.0)}
+ok = True
+for s, (lo, hi, eff, ma, mb) in want.items():
+    v = r[s]
+    got = (v["b_lower"], v["b_higher"], v["median_effect"], v["median_a"], v["median_b"])
+    if got[:2] != (lo, hi) or any(abs(g - w) > 1e-9 for g, w in zip(got[2:], (eff, ma, mb))):
+        print(f"{s}: got {got}, want {(lo, hi, eff, ma, mb)}")
+        ok = False
+    if not (v["ci95"][0] <= v["median_effect"] <= v["ci95"][1]):
+        print(f"{s}: the median effect {v['median_effect']} is outside its interval {v['ci95']}")
+        ok = False
+sys.exit(0 if ok else 1)
+PY
+echo "ok  hand-made pair: counts, median effects and pooled medians as worked out"
+"$PY" "$C" "$T/a.json" "$T/c.json" >"$T/out" 2>"$T/err" && fail "different yaws were compared"
+grep -q "p1.hdr: .*score different crops" "$T/err" || fail "different crops: $(cat "$T/err")"
+echo '{"lights": []}' >"$T/lights.json"
+"$PY" "$C" "$T/a.json" "$T/lights.json" >"$T/out" 2>"$T/err" && fail "a lights file was compared"
+grep -q "lights.json: not .parlight eval --json. output" "$T/err" || fail "non-eval JSON: $(cat "$T/err")"
+"$PY" "$C" "$T/a.json" "$T/missing.json" >"$T/out" 2>"$T/err" && fail "a missing file was compared"
+grep -q "missing.json" "$T/err" || fail "missing file: $(cat "$T/err")"
+echo "ok  different crops, non-eval JSON and a missing file refused, naming the problem"
+
+# --- real parlight eval output ---------------------------------------------------------------
+M1=build/models/seeded-n3.plm
+M2=build/models/seeded-n3-96x128.plm
+{ [ -x "$P" ] && [ -f "$M1" ] && [ -f "$M2" ]; } ||
+    { echo "skip: $P or the seeded models are not built (make test builds them)"; exit 77; }
+echo '{"lights":[{"dir":[0.4,0.6,-0.7],"distance_m":2,"solid_angle_sr":0.08,"rgb":[300,280,240]}],"ambient":[0.25,0.25,0.3]}' >"$T/L1.json"
+echo '{"lights":[{"dir":[-0.8,0.2,0.5],"distance_m":3,"solid_angle_sr":0.2,"rgb":[50,60,80]}],"ambient":[0.1,0.1,0.1]}' >"$T/L2.json"
+for i in 1 2; do
+    "$P" render --lights "$T/L$i.json" --out "$T/panos/room$i.exr" --width 256 >/dev/null 2>&1 ||
+        fail "render room$i"
+done
+for m in 1 2; do
+    M=$M1; [ $m -eq 2 ] && M=$M2
+    "$P" eval --model "$M" --hdr "$T/panos" --crops 3 --json --ridge none >"$T/e$m.json" 2>"$T/err" ||
+        fail "eval $M: $(cat "$T/err")"
+done
+"$P" eval --model "$M1" --hdr "$T/panos" --crops 2 --json --ridge none >"$T/e3.json" 2>"$T/err" ||
+    fail "eval --crops 2: $(cat "$T/err")"
+"$PY" "$C" "$T/e1.json" "$T/e1.json" --json >"$T/self.json" 2>"$T/err" || fail "self: $(cat "$T/err")"
+"$PY" - "$T/self.json" <<'PY' || fail "a model against itself: not all zero ($(cat "$T/self.json"))"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["crops"] == 6 and r["panoramas"] == 2, r
+for s, v in r["scores"].items():
+    assert v["b_lower"] == 0 and v["b_higher"] == 0, (s, v)
+    assert v["median_effect"] == 0 and v["ci95"] == [0, 0], (s, v)
+    assert v["median_a"] == v["median_b"], (s, v)
+PY
+"$PY" "$C" "$T/e1.json" "$T/e2.json" >"$T/table" 2>"$T/err" || fail "two models: $(cat "$T/err")"
+grep -q "^6 crops of 2 panoramas" "$T/table" || fail "two models: $(cat "$T/table")"
+grep -q "room2.exr" "$T/table" || fail "two models: no per-panorama rows: $(cat "$T/table")"
+"$PY" "$C" "$T/e1.json" "$T/e3.json" >"$T/out" 2>"$T/err" && fail "--crops 3 and --crops 2 were compared"
+grep -q "score different crops" "$T/err" || fail "--crops 3 against 2: $(cat "$T/err")"
+echo "ok  real eval output: a model against itself is all zero, two models pair crop for crop," \
+    "--crops 3 against --crops 2 refused"

@@ -1,0 +1,138 @@
+#!/usr/bin/env python3
+"""Paired comparison of two models scored on the same crops by `parlight eval --json`.
+
+    compare_evals.py A.json B.json [--method model] [--boot 2000] [--seed 0] [--json]
+
+The pooled median of `parlight eval` can jump across a gap between panoramas for a small change
+(models/MODEL_CARD.md, "The 100-panorama retrain": 0.263 -> 0.328 si-RMSE while B was lower on 34
+of the 64 crops). This reads both files' per-crop rows, refuses files whose crops differ
+(panorama, yaw, exposure scale), and prints per score:
+
+  rmse, si_rmse   how many crops B is lower / higher on, the median over crops of log(B / A)
+                  (negative: B better) with a 95% interval from resampling whole panoramas
+                  (crops of one room are not independent), and both pooled medians;
+  angle_deg       the same with the difference B - A in degrees;
+
+and per panorama the medians of both. --method names the row of each file to compare (model,
+ambient, brightest, ridge; default model, so two models' files). Standard library only.
+"""
+import argparse
+import json
+import math
+import random
+import sys
+
+SCORES = ("rmse", "si_rmse", "angle_deg")
+
+
+def median(v):
+    v = sorted(v)
+    n = len(v)
+    if n == 0:
+        return float("nan")
+    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
+
+
+def load(path, method):
+    """[(panorama, [(key, {score: value}), ...]), ...] of one eval file."""
+    try:
+        with open(path) as f:
+            d = json.load(f)
+    except (OSError, ValueError) as e:
+        raise SystemExit(f"compare_evals: {path}: {e}") from None
+    if not isinstance(d, dict) or not isinstance(d.get("panoramas"), list):
+        raise SystemExit(f"compare_evals: {path}: not `parlight eval --json` output (no panoramas)")
+    out = []
+    for p in d["panoramas"]:
+        rows = []
+        for c in p.get("crops") or []:
+            m = c.get(method)
+            if not isinstance(m, dict) or any(not isinstance(m.get(s), (int, float)) for s in SCORES):
+                raise SystemExit(f"compare_evals: {path}: {p.get('file')} yaw {c.get('yaw_deg')}: "
+                                 f"no {method} scores")
+            rows.append(((c.get("yaw_deg"), c.get("exposure_scale")), {s: float(m[s]) for s in SCORES}))
+        if not rows:
+            raise SystemExit(f"compare_evals: {path}: {p.get('file')}: no per-crop rows")
+        out.append((p.get("file"), rows))
+    return out
+
+
+def paired(a, b, pa, pb):
+    if [p for p, _ in a] != [p for p, _ in b]:
+        raise SystemExit(f"compare_evals: {pa} and {pb} score different panoramas: "
+                         f"{[p for p, _ in a]} against {[p for p, _ in b]}")
+    pairs = []
+    for (pano, ra), (_, rb) in zip(a, b):
+        if [k for k, _ in ra] != [k for k, _ in rb]:
+            raise SystemExit(f"compare_evals: {pano}: {pa} and {pb} score different crops "
+                             "(crops per panorama, yaw or exposure differ)")
+        pairs.append((pano, [(x, y) for (_, x), (_, y) in zip(ra, rb)]))
+    return pairs
+
+
+def effect(score, x, y):
+    if score == "angle_deg":
+        return y - x
+    if x <= 0 or y <= 0:
+        return float("nan")
+    return math.log(y / x)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("a", help="parlight eval --json of model A")
+    ap.add_argument("b", help="parlight eval --json of model B (same panoramas, --crops)")
+    ap.add_argument("--method", default="model", help="row to compare (default model)")
+    ap.add_argument("--boot", type=int, default=2000, help="panorama resamples (default 2000)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", action="store_true", help="one JSON object instead of the table")
+    a = ap.parse_args(argv)
+    if a.boot < 0:
+        raise SystemExit(f"compare_evals: --boot {a.boot}: expected 0 or more")
+    pairs = paired(load(a.a, a.method), load(a.b, a.method), a.a, a.b)
+    rng = random.Random(a.seed)
+    res = {"a": a.a, "b": a.b, "method": a.method, "panoramas": len(pairs),
+           "crops": sum(len(r) for _, r in pairs), "scores": {}, "per_panorama": []}
+    for s in SCORES:
+        eff = [[effect(s, x[s], y[s]) for x, y in r] for _, r in pairs]
+        flat = [e for r in eff for e in r if not math.isnan(e)]
+        xs = [x[s] for _, r in pairs for x, _ in r]
+        ys = [y[s] for _, r in pairs for _, y in r]
+        boot = []
+        for _ in range(a.boot):
+            pick = [eff[rng.randrange(len(eff))] for _ in eff]
+            v = [e for r in pick for e in r if not math.isnan(e)]
+            if v:
+                boot.append(median(v))
+        boot.sort()
+        ci = ([boot[int(0.025 * (len(boot) - 1))], boot[int(math.ceil(0.975 * (len(boot) - 1)))]]
+              if boot else [float("nan")] * 2)
+        res["scores"][s] = {
+            "b_lower": sum(y < x for x, y in zip(xs, ys)), "b_higher": sum(y > x for x, y in zip(xs, ys)),
+            "median_effect": median(flat), "ci95": ci,
+            "effect": "B - A (deg)" if s == "angle_deg" else "log(B / A)",
+            "median_a": median(xs), "median_b": median(ys)}
+    for pano, r in pairs:
+        res["per_panorama"].append({"file": pano, **{
+            s: [median([x[s] for x, _ in r]), median([y[s] for _, y in r])] for s in SCORES}})
+    if a.json:
+        json.dump(res, sys.stdout, indent=1)
+        print()
+        return 0
+    print(f"A: {a.a}\nB: {a.b}\n{res['crops']} crops of {res['panoramas']} panoramas, "
+          f"row '{a.method}'; 95% intervals from {a.boot} resamples of whole panoramas")
+    print(f"  {'score':10s} {'B lower':>8s} {'B higher':>9s}   median effect [95% interval]"
+          "          pooled median A -> B")
+    for s, v in res["scores"].items():
+        unit = "deg" if s == "angle_deg" else "log"
+        print(f"  {s:10s} {v['b_lower']:8d} {v['b_higher']:9d}   {v['median_effect']:+8.4f} {unit} "
+              f"[{v['ci95'][0]:+.4f}, {v['ci95'][1]:+.4f}]    {v['median_a']:.4g} -> {v['median_b']:.4g}")
+    print("  per panorama (medians, A -> B):")
+    for p in res["per_panorama"]:
+        print(f"    {p['file']:32s} " + "  ".join(
+            f"{s} {p[s][0]:.4g} -> {p[s][1]:.4g}" for s in SCORES))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
