@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # tools/train/compare_evals.py, the paired comparison of two `parlight eval --json` files:
 # its counts, median effects and pooled medians on a hand-made pair whose answers are worked out
-# below; a model against itself (every effect 0, interval [0, 0]) and two models on real
+# below (also with a null angle); a model against itself (every effect 0, interval [0, 0]) and two models on real
 # `parlight eval --json` output of rendered panoramas (so a change of eval's JSON breaks this
 # test); files of different crops, non-eval JSON and a missing file refused with a message.
 # Models: build/models/seeded-n3*.plm (seeded: the numbers mean nothing, the pairing is tested).
@@ -37,6 +37,8 @@ t = sys.argv[1]
 json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40]), open(f"{t}/a.json", "w"))
 json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, 50, 40]), open(f"{t}/b.json", "w"))
 json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40], yaws=(0, 90)), open(f"{t}/c.json", "w"))
+# B with its third angle null (eval writes null for a crop whose panorama has no light)
+json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, None, 40]), open(f"{t}/n.json", "w"))
 PY
 "$PY" "$C" "$T/a.json" "$T/b.json" --json >"$T/ab.json" 2>"$T/err" || fail "compare: $(cat "$T/err")"
 "$PY" - "$T/ab.json" <<'PY' || fail "hand-made pair: wrong figures ($(cat "$T/ab.json"))"
@@ -56,7 +58,18 @@ for s, (lo, hi, eff, ma, mb) in want.items():
         ok = False
 sys.exit(0 if ok else 1)
 PY
-echo "ok  hand-made pair: counts, median effects and pooled medians as worked out"
+# null left out: differences -10 0 (none) 0 -> lower 1, higher 0, median 0; B's pooled angle
+# median of 0 20 40 is 20
+"$PY" "$C" "$T/a.json" "$T/n.json" --json >"$T/an.json" 2>"$T/err" ||
+    fail "a null angle was refused: $(cat "$T/err")"
+"$PY" - "$T/an.json" <<'PY' || fail "null angle: wrong figures ($(cat "$T/an.json"))"
+import json, sys
+v = json.load(open(sys.argv[1]))["scores"]["angle_deg"]
+got = (v["b_lower"], v["b_higher"], v["median_effect"], v["median_a"], v["median_b"])
+print(got)
+sys.exit(0 if got == (1, 0, 0.0, 25.0, 20.0) else 1)
+PY
+echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out"
 "$PY" "$C" "$T/a.json" "$T/c.json" >"$T/out" 2>"$T/err" && fail "different yaws were compared"
 grep -q "p1.hdr: .*score different crops" "$T/err" || fail "different crops: $(cat "$T/err")"
 echo '{"lights": []}' >"$T/lights.json"

@@ -13,8 +13,10 @@ of the 64 crops). This reads both files' per-crop rows, refuses files whose crop
                   (crops of one room are not independent), and both pooled medians;
   angle_deg       the same with the difference B - A in degrees;
 
-and per panorama the medians of both. --method names the row of each file to compare (model,
-ambient, brightest, ridge; default model, so two models' files). Standard library only.
+and per panorama the medians of both. A score eval wrote as null (the angle of a crop whose
+panorama has no extracted light) is left out of every figure, as eval's own statistics leave out
+non-finite values. --method names the row of each file to compare (model, ambient, brightest,
+ridge; default model, so two models' files). Standard library only.
 """
 import argparse
 import json
@@ -26,7 +28,8 @@ SCORES = ("rmse", "si_rmse", "angle_deg")
 
 
 def median(v):
-    v = sorted(v)
+    """Median of the finite values (NaN when there are none)."""
+    v = sorted(x for x in v if math.isfinite(x))
     n = len(v)
     if n == 0:
         return float("nan")
@@ -47,10 +50,12 @@ def load(path, method):
         rows = []
         for c in p.get("crops") or []:
             m = c.get(method)
-            if not isinstance(m, dict) or any(not isinstance(m.get(s), (int, float)) for s in SCORES):
+            if not isinstance(m, dict) or any(
+                    s not in m or not (m[s] is None or isinstance(m[s], (int, float))) for s in SCORES):
                 raise SystemExit(f"compare_evals: {path}: {p.get('file')} yaw {c.get('yaw_deg')}: "
                                  f"no {method} scores")
-            rows.append(((c.get("yaw_deg"), c.get("exposure_scale")), {s: float(m[s]) for s in SCORES}))
+            rows.append(((c.get("yaw_deg"), c.get("exposure_scale")),
+                         {s: math.nan if m[s] is None else float(m[s]) for s in SCORES}))
         if not rows:
             raise SystemExit(f"compare_evals: {path}: {p.get('file')}: no per-crop rows")
         out.append((p.get("file"), rows))
@@ -73,8 +78,8 @@ def paired(a, b, pa, pb):
 def effect(score, x, y):
     if score == "angle_deg":
         return y - x
-    if x <= 0 or y <= 0:
-        return float("nan")
+    if not (x > 0 and y > 0):      # also NaN (null in the file)
+        return math.nan
     return math.log(y / x)
 
 
@@ -95,21 +100,20 @@ def main(argv=None):
            "crops": sum(len(r) for _, r in pairs), "scores": {}, "per_panorama": []}
     for s in SCORES:
         eff = [[effect(s, x[s], y[s]) for x, y in r] for _, r in pairs]
-        flat = [e for r in eff for e in r if not math.isnan(e)]
         xs = [x[s] for _, r in pairs for x, _ in r]
         ys = [y[s] for _, r in pairs for _, y in r]
         boot = []
         for _ in range(a.boot):
             pick = [eff[rng.randrange(len(eff))] for _ in eff]
-            v = [e for r in pick for e in r if not math.isnan(e)]
-            if v:
-                boot.append(median(v))
+            m = median([e for r in pick for e in r])
+            if math.isfinite(m):
+                boot.append(m)
         boot.sort()
         ci = ([boot[int(0.025 * (len(boot) - 1))], boot[int(math.ceil(0.975 * (len(boot) - 1)))]]
               if boot else [float("nan")] * 2)
         res["scores"][s] = {
             "b_lower": sum(y < x for x, y in zip(xs, ys)), "b_higher": sum(y > x for x, y in zip(xs, ys)),
-            "median_effect": median(flat), "ci95": ci,
+            "median_effect": median([e for r in eff for e in r]), "ci95": ci,
             "effect": "B - A (deg)" if s == "angle_deg" else "log(B / A)",
             "median_a": median(xs), "median_b": median(ys)}
     for pano, r in pairs:
