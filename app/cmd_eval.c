@@ -124,6 +124,7 @@ typedef struct pano_row {
     int width, height, n_gt_lights;
     double *yaw, *k;        /* [crops] */
     double *frame_ev;       /* [crops] */
+    signed char *in_view;   /* [crops]: primary_in_view() of the ground truth */
     pl_lighting *pred, *gt; /* [crops]: the model's estimates, the ground truths */
     pl_lighting *ridge;     /* [crops]: (d)'s estimates (zeros when not scored) */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
@@ -131,11 +132,25 @@ typedef struct pano_row {
 
 #define SKIP_FILE 1
 
+/* Whether the ground truth's primary light (pl_lighting_primary's) projects inside the crop:
+ * 1 in view, 0 out of view, -1 no light. Most crops' primary light is outside the 60-degree
+ * view (56 of eval/'s 64), where its direction has to be inferred from the room's shading
+ * rather than seen; the report splits the angle by this. */
+static int primary_in_view(const pl_lighting *gt, const pl_crop_params *p)
+{
+    float dir[3], rgb[3];
+    double x, y;
+    if (gt->n_lights <= 0) return -1;
+    pl_lighting_primary(gt, dir, rgb);
+    return pl_crop_project(p, dir, &x, &y);
+}
+
 static void free_row(pano_row *r)
 {
     free(r->yaw);
     free(r->k);
     free(r->frame_ev);
+    free(r->in_view);
     free(r->s);
     free(r->pred);
     free(r->gt);
@@ -205,11 +220,13 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     r->yaw = malloc((size_t)crops * sizeof *r->yaw);
     r->k = malloc((size_t)crops * sizeof *r->k);
     r->frame_ev = malloc((size_t)crops * sizeof *r->frame_ev);
+    r->in_view = malloc((size_t)crops * sizeof *r->in_view);
     r->s = malloc((size_t)crops * PL_EVAL_N_METHODS * sizeof *r->s);
     r->pred = malloc((size_t)crops * sizeof *r->pred);
     r->gt = malloc((size_t)crops * sizeof *r->gt);
     r->ridge = malloc((size_t)crops * sizeof *r->ridge);
-    if (!r->yaw || !r->k || !r->frame_ev || !r->s || !r->pred || !r->gt || !r->ridge) {
+    if (!r->yaw || !r->k || !r->frame_ev || !r->in_view || !r->s || !r->pred || !r->gt ||
+        !r->ridge) {
         free_row(r);
         return pl_error(PL_E_NOMEM, "out of memory");
     }
@@ -217,6 +234,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->yaw[i] = jobs[i].p.yaw_deg;
         r->k[i] = jobs[i].k;
         r->frame_ev[i] = jobs[i].frame_ev;
+        r->in_view[i] = (signed char)primary_in_view(&jobs[i].gt, &jobs[i].p);
         r->pred[i] = jobs[i].pred;
         r->gt[i] = jobs[i].gt;
         r->ridge[i] = jobs[i].ridge;
@@ -345,6 +363,10 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
 {
     fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g,\"frame_ev\":", pr->yaw[i], pr->k[i]);
     put_num(f, pr->frame_ev[i]);
+    fprintf(f, ",\"primary_in_view\":%s",
+            pr->in_view[i] < 0 ? "null"
+            : pr->in_view[i]   ? "true"
+                               : "false");
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
         if (m == PL_EVAL_RIDGE && !have_ridge) continue;
         const pl_eval_scores *x = &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
@@ -373,6 +395,46 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
     return 0;
 }
 
+/* The angle statistics of method m over the crops whose in_view flag is `want` (1 or 0). */
+static int angle_stats_where(const pl_eval_scores *s, const signed char *in_view, int n, int m,
+                             int want, double *buf, pl_eval_stats *out)
+{
+    int k = 0;
+    for (int i = 0; i < n; i++)
+        if (in_view[i] == want) buf[k++] = s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m].angle_deg;
+    return pl_eval_quartiles(buf, k, out);
+}
+
+static int count_where(const signed char *in_view, int n, int want)
+{
+    int k = 0;
+    for (int i = 0; i < n; i++)
+        k += in_view[i] == want;
+    return k;
+}
+
+/* "angle_by_view":{"in_view":{"crops":N,"model":{median,q1,q3,n},...},"out_of_view":{...}} */
+static int put_angle_by_view_json(FILE *f, const pl_eval_scores *s, const signed char *in_view,
+                                  int n, int have_ridge, double *buf)
+{
+    fputs("{", f);
+    for (int want = 1; want >= 0; want--) {
+        fprintf(f, "%s\"%s\":{\"crops\":%d", want ? "" : ",", want ? "in_view" : "out_of_view",
+                count_where(in_view, n, want));
+        for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+            if (m == PL_EVAL_RIDGE && !have_ridge) continue;
+            pl_eval_stats st;
+            int rc = angle_stats_where(s, in_view, n, m, want, buf, &st);
+            if (rc < 0) return rc;
+            fputc(',', f);
+            put_stats_json(f, pl_eval_method_key(m), &st, 1);
+        }
+        fputc('}', f);
+    }
+    fputc('}', f);
+    return 0;
+}
+
 static void put_cell(FILE *f, const pl_eval_stats *st, int width)
 {
     char b[96];
@@ -395,6 +457,31 @@ static int put_table(FILE *f, const pl_eval_scores *s, int n, int have_ridge, do
             int rc = stats_of(s, n, m, q, buf, &st);
             if (rc < 0) return rc;
             put_cell(f, &st, q < N_METRICS - 1 ? 28 : 0);
+        }
+        fputc('\n', f);
+    }
+    return 0;
+}
+
+/* The angle column again, split by where the ground truth's primary light is. */
+static int put_angle_by_view(FILE *f, const pl_eval_scores *s, const signed char *in_view, int n,
+                             int have_ridge, double *buf)
+{
+    char h[2][64];
+    for (int want = 1; want >= 0; want--) {
+        const int k = count_where(in_view, n, want);
+        snprintf(h[1 - want], sizeof h[0], "%s (%d crop%s)", want ? "in view" : "out of view", k,
+                 k == 1 ? "" : "s");
+    }
+    fprintf(f, "  %-24s  %-28s  %s\n", "angle deg, primary light", h[0], h[1]);
+    for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
+        if (m == PL_EVAL_RIDGE && !have_ridge) continue;
+        fprintf(f, "  %-24s", pl_eval_method_label(m));
+        for (int want = 1; want >= 0; want--) {
+            pl_eval_stats st;
+            int rc = angle_stats_where(s, in_view, n, m, want, buf, &st);
+            if (rc < 0) return rc;
+            put_cell(f, &st, want ? 28 : 0);
         }
         fputc('\n', f);
     }
@@ -547,15 +634,19 @@ int cmd_eval(int argc, char **argv)
     /* all crops of all panoramas, in one array */
     const int n_crops = n_rows * crops;
     pl_eval_scores *all = malloc((size_t)n_crops * PL_EVAL_N_METHODS * sizeof *all);
+    signed char *all_in_view = malloc((size_t)n_crops);
     buf = malloc((size_t)n_crops * sizeof *buf);
-    if (!all || !buf) {
+    if (!all || !all_in_view || !buf) {
         free(all);
+        free(all_in_view);
         fprintf(stderr, "parlight eval: out of memory\n");
         goto out;
     }
-    for (int r = 0; r < n_rows; r++)
+    for (int r = 0; r < n_rows; r++) {
         memcpy(&all[(size_t)r * crops * PL_EVAL_N_METHODS], rows[r].s,
                (size_t)crops * PL_EVAL_N_METHODS * sizeof *all);
+        memcpy(&all_in_view[(size_t)r * crops], rows[r].in_view, (size_t)crops);
+    }
     int rc = 0;
     if (json) {
         printf("{\"model\":");
@@ -589,6 +680,9 @@ int cmd_eval(int argc, char **argv)
         }
         printf(",\"methods\":");
         rc = put_methods_json(stdout, all, n_crops, ridge != NULL, buf);
+        printf(",\"angle_by_view\":");
+        if (rc == 0)
+            rc = put_angle_by_view_json(stdout, all, all_in_view, n_crops, ridge != NULL, buf);
         printf(",\"panoramas\":[");
         for (int r = 0; r < n_rows && rc == 0; r++) {
             const pano_row *pr = &rows[r];
@@ -616,6 +710,7 @@ int cmd_eval(int argc, char **argv)
                crops, crops, size);
         if (ridge) printf("  (d) ridge: %s\n", ridge_path);
         rc = put_table(stdout, all, n_crops, ridge != NULL, buf);
+        if (rc == 0) rc = put_angle_by_view(stdout, all, all_in_view, n_crops, ridge != NULL, buf);
         for (int r = 0; r < n_rows && per_pano && rc == 0; r++) {
             printf("\n%s (%dx%d, %d ground-truth light%s)\n", rows[r].file, rows[r].width,
                    rows[r].height, rows[r].n_gt_lights, rows[r].n_gt_lights == 1 ? "" : "s");
@@ -623,6 +718,7 @@ int cmd_eval(int argc, char **argv)
         }
     }
     free(all);
+    free(all_in_view);
     if (rc < 0) {
         fprintf(stderr, "parlight eval: %s\n", pl_last_error());
         goto out;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # tools/train/compare_evals.py, the paired comparison of two `parlight eval --json` files:
 # its counts, median effects and pooled medians on a hand-made pair whose answers are worked out
-# below (also with a null angle); a model against itself (every effect 0, interval [0, 0]) and two models on real
+# below (also with a null angle, and split by eval's primary_in_view flags); a model against
+# itself (every effect 0, interval [0, 0]) and two models on real
 # `parlight eval --json` output of rendered panoramas (so a change of eval's JSON breaks this
 # test); files of different crops, non-eval JSON and a missing file refused with a message.
 # Models: build/models/seeded-n3*.plm (seeded: the numbers mean nothing, the pairing is tested).
@@ -25,12 +26,15 @@ fail() { echo "FAIL: $*"; exit 1; }
 #    pooled si medians: A 0.25, B 0.2
 "$PY" - "$T" <<'PY' || fail "could not write the hand-made files"
 import json, sys
-def f(rmse, si, ang, yaws=(0, 45)):
+def f(rmse, si, ang, yaws=(0, 45), view=None):
     pan = []
     for i, name in enumerate(("p1.hdr", "p2.hdr")):
         crops = [{"yaw_deg": yaws[j], "exposure_scale": 1.0,
                   "model": {"rmse": rmse[2 * i + j], "si_rmse": si[2 * i + j], "angle_deg": ang[2 * i + j]}}
                  for j in range(2)]
+        for j, c in enumerate(crops):
+            if view:
+                c["primary_in_view"] = view[2 * i + j]
         pan.append({"file": name, "crops": crops})
     return {"panoramas": pan}
 t = sys.argv[1]
@@ -39,6 +43,12 @@ json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, 50, 40]), open(f"{t}/
 json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40], yaws=(0, 90)), open(f"{t}/c.json", "w"))
 # B with its third angle null (eval writes null for a crop whose panorama has no light)
 json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, None, 40]), open(f"{t}/n.json", "w"))
+# the same pair with eval's primary_in_view flags: crops 1 and 4 in view (angle differences -10
+# and 0: median -5), 2 and 3 out of view (0 and +20: median +10); and B with other flags
+V = [True, False, False, True]
+json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40], view=V), open(f"{t}/av.json", "w"))
+json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, 50, 40], view=V), open(f"{t}/bv.json", "w"))
+json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, 50, 40], view=[not v for v in V]), open(f"{t}/bw.json", "w"))
 PY
 "$PY" "$C" "$T/a.json" "$T/b.json" --json >"$T/ab.json" 2>"$T/err" || fail "compare: $(cat "$T/err")"
 "$PY" - "$T/ab.json" <<'PY' || fail "hand-made pair: wrong figures ($(cat "$T/ab.json"))"
@@ -69,7 +79,25 @@ got = (v["b_lower"], v["b_higher"], v["median_effect"], v["median_a"], v["median
 print(got)
 sys.exit(0 if got == (1, 0, 0.0, 25.0, 20.0) else 1)
 PY
-echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out"
+"$PY" "$C" "$T/av.json" "$T/bv.json" --json >"$T/abv.json" 2>"$T/err" || fail "compare with flags: $(cat "$T/err")"
+"$PY" - "$T/abv.json" <<'PY' || fail "angle by view: wrong figures ($(cat "$T/abv.json"))"
+import json, sys
+r = json.load(open(sys.argv[1]))["scores"]
+got = {k: (r[k]["crops"], r[k]["panoramas"], r[k]["median_effect"], r[k]["median_a"], r[k]["median_b"])
+       for k in ("angle_deg in view", "angle_deg out of view")}
+want = {"angle_deg in view": (2, 2, -5.0, 25.0, 20.0), "angle_deg out of view": (2, 2, 10.0, 25.0, 35.0)}
+print(got)
+sys.exit(0 if got == want and r["angle_deg"]["median_effect"] == 0.0 else 1)
+PY
+"$PY" "$C" "$T/av.json" "$T/bv.json" >"$T/out" 2>"$T/err" || fail "table with flags: $(cat "$T/err")"
+grep -q "angle_deg out of view (2 crops of 2 panoramas)" "$T/out" || fail "table lacks the out-of-view row: $(cat "$T/out")"
+"$PY" "$C" "$T/a.json" "$T/b.json" >"$T/out" 2>"$T/err" || fail "table: $(cat "$T/err")"
+grep -q "in view" "$T/out" && fail "files without flags got an in-view row"
+"$PY" "$C" "$T/a.json" "$T/bv.json" >"$T/out" 2>"$T/err" || fail "one file with flags: $(cat "$T/err")"
+grep -q "in view" "$T/out" && fail "a file without flags got an in-view row"
+"$PY" "$C" "$T/av.json" "$T/bw.json" >"$T/out" 2>"$T/err" && fail "files whose flags disagree were compared"
+grep -q "disagree on which crops have the primary light in view" "$T/err" || fail "disagreeing flags: $(cat "$T/err")"
+echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out, angle split by view"
 "$PY" "$C" "$T/a.json" "$T/c.json" >"$T/out" 2>"$T/err" && fail "different yaws were compared"
 grep -q "p1.hdr: .*score different crops" "$T/err" || fail "different crops: $(cat "$T/err")"
 echo '{"lights": []}' >"$T/lights.json"

@@ -65,6 +65,19 @@ need(c["rmse"]["median"] < 0.5 * a["rmse"]["median"],
      f"(c) rmse {c['rmse']['median']} does not beat (a) {a['rmse']['median']}")
 need(c["angle_deg"]["median"] < 1e-3, "(c) angle")
 need(abs(c["scale_ev"]["median"]) < 0.25, f"(c) scale EV {c['scale_ev']['median']}: not near 0")
+# primary_in_view per crop, and angle_by_view: the angle medians of the crops of each kind
+flags = [c.get("primary_in_view", "absent") for p in d["panoramas"] for c in p["crops"]]
+need(all(f in (True, False, None) for f in flags), f"primary_in_view flags {flags}")
+abv = d.get("angle_by_view", {})
+for key, want in (("in_view", True), ("out_of_view", False)):
+    sel = [c for p in d["panoramas"] for c in p["crops"] if c.get("primary_in_view") is want]
+    need(abv.get(key, {}).get("crops") == len(sel), f"angle_by_view.{key}.crops {abv.get(key)}")
+    for m in methods:
+        v = sorted(c[m]["angle_deg"] for c in sel if c[m]["angle_deg"] is not None)
+        med = (v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2])) if v else None
+        got = abv.get(key, {}).get(m, {}).get("median")
+        need((med is None and got is None) or (med is not None and got is not None and abs(got - med) < 1e-3),
+             f"angle_by_view.{key}.{m} median {got}, the crops say {med}")
 print("\n".join("FAIL: " + e for e in err) or f"ok   JSON shape of {path}: (a) rmse {a['rmse']['median']:.4g}, (c) rmse {c['rmse']['median']:.4g}")
 sys.exit(1 if err else 0)
 PY
@@ -102,6 +115,24 @@ PY
 else
     fail "parlight crop --batch / estimate failed on the test panorama"
 fi
+
+# --- where the primary light is: a light just right of straight ahead is in view of the yaw-0
+# crop (x/-z 0.1 against tan 30 = 0.58) and behind the yaw-180 one ---
+mkdir -p "$T/front"
+cat >"$T/front.json" <<'J'
+{"lights":[{"dir":[0.1,0.05,-1],"distance_m":2,"solid_angle_sr":0.05,"rgb":[400,380,350]}],
+ "ambient":[0.2,0.2,0.2]}
+J
+"$P" render --lights "$T/front.json" --out "$T/front/front.exr" --width 256 >/dev/null 2>&1 ||
+    fail "parlight render could not make the light-ahead panorama"
+expect 0 "" -- "$P" eval --model "$M" --hdr "$T/front" --crops 2 --size 16 --json
+check_json "$T/out" 1 2 0 || fails=$((fails + 1))
+"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); f=[c["primary_in_view"] for c in d["panoramas"][0]["crops"]]; a=d["angle_by_view"]; sys.exit(0 if f == [True, False] and a["in_view"]["crops"] == 1 and a["out_of_view"]["crops"] == 1 and a["in_view"]["brightest"]["median"] < 5 else 1)' "$T/out" ||
+    fail "light ahead: primary_in_view is not [true, false], or (b) does not find the light in view"
+expect 0 "" -- "$P" eval --model "$M" --hdr "$T/front" --crops 2 --size 16
+grep -qE "angle deg, primary light +in view \(1 crop\) +out of view \(1 crop\)" "$T/out" ||
+    fail "text output lacks the angle-by-view table"
+
 expect 0 "" -- "$P" eval --model "$M" --hdr "$T/synth" --crops 1 --size 16 --per-pano
 for w in "rmse median" "^  model " "\(a\) mean ambient" "\(b\) brightest" "\(c\) gt lights" "^one.exr"; do
     grep -qE -- "$w" "$T/out" || fail "text output lacks /$w/"

@@ -13,7 +13,9 @@ of the 64 crops). This reads both files' per-crop rows, refuses files whose crop
                   (crops of one room are not independent), and both pooled medians;
   angle_deg       the same with the difference B - A in degrees;
 
-and per panorama the medians of both. A score eval wrote as null (the angle of a crop whose
+and per panorama the medians of both. When both files have eval's `primary_in_view` flags (since
+2026-12-04), the angle is also compared on the crops whose true primary light is in view and on
+those where it is outside the crop (most of them). A score eval wrote as null (the angle of a crop whose
 panorama has no extracted light) is left out of every figure, as eval's own statistics leave out
 non-finite values. --method names the row of each file to compare (model, ambient, brightest,
 ridge; default model, so two models' files). Standard library only.
@@ -54,8 +56,9 @@ def load(path, method):
                     s not in m or not (m[s] is None or isinstance(m[s], (int, float))) for s in SCORES):
                 raise SystemExit(f"compare_evals: {path}: {p.get('file')} yaw {c.get('yaw_deg')}: "
                                  f"no {method} scores")
-            rows.append(((c.get("yaw_deg"), c.get("exposure_scale")),
-                         {s: math.nan if m[s] is None else float(m[s]) for s in SCORES}))
+            sc = {s: math.nan if m[s] is None else float(m[s]) for s in SCORES}
+            sc["in_view"] = c.get("primary_in_view")
+            rows.append(((c.get("yaw_deg"), c.get("exposure_scale")), sc))
         if not rows:
             raise SystemExit(f"compare_evals: {path}: {p.get('file')}: no per-crop rows")
         out.append((p.get("file"), rows))
@@ -83,6 +86,29 @@ def effect(score, x, y):
     return math.log(y / x)
 
 
+def score_stats(pairs, s, boot_n, rng, keep=lambda x: True):
+    """Counts, median effect with its panorama-resampled 95% interval and pooled medians of score
+    s over the crop pairs whose A row passes keep."""
+    eff = [[effect(s, x[s], y[s]) for x, y in r if keep(x)] for _, r in pairs]
+    eff = [e for e in eff if e]
+    xs = [x[s] for _, r in pairs for x, _ in r if keep(x)]
+    ys = [y[s] for _, r in pairs for x, y in r if keep(x)]
+    boot = []
+    for _ in range(boot_n if eff else 0):
+        pick = [eff[rng.randrange(len(eff))] for _ in eff]
+        m = median([e for r in pick for e in r])
+        if math.isfinite(m):
+            boot.append(m)
+    boot.sort()
+    ci = ([boot[int(0.025 * (len(boot) - 1))], boot[int(math.ceil(0.975 * (len(boot) - 1)))]]
+          if boot else [float("nan")] * 2)
+    return {"crops": len(xs), "panoramas": len(eff),
+            "b_lower": sum(y < x for x, y in zip(xs, ys)), "b_higher": sum(y > x for x, y in zip(xs, ys)),
+            "median_effect": median([e for r in eff for e in r]), "ci95": ci,
+            "effect": "B - A (deg)" if s == "angle_deg" else "log(B / A)",
+            "median_a": median(xs), "median_b": median(ys)}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("a", help="parlight eval --json of model A")
@@ -99,23 +125,16 @@ def main(argv=None):
     res = {"a": a.a, "b": a.b, "method": a.method, "panoramas": len(pairs),
            "crops": sum(len(r) for _, r in pairs), "scores": {}, "per_panorama": []}
     for s in SCORES:
-        eff = [[effect(s, x[s], y[s]) for x, y in r] for _, r in pairs]
-        xs = [x[s] for _, r in pairs for x, _ in r]
-        ys = [y[s] for _, r in pairs for _, y in r]
-        boot = []
-        for _ in range(a.boot):
-            pick = [eff[rng.randrange(len(eff))] for _ in eff]
-            m = median([e for r in pick for e in r])
-            if math.isfinite(m):
-                boot.append(m)
-        boot.sort()
-        ci = ([boot[int(0.025 * (len(boot) - 1))], boot[int(math.ceil(0.975 * (len(boot) - 1)))]]
-              if boot else [float("nan")] * 2)
-        res["scores"][s] = {
-            "b_lower": sum(y < x for x, y in zip(xs, ys)), "b_higher": sum(y > x for x, y in zip(xs, ys)),
-            "median_effect": median([e for r in eff for e in r]), "ci95": ci,
-            "effect": "B - A (deg)" if s == "angle_deg" else "log(B / A)",
-            "median_a": median(xs), "median_b": median(ys)}
+        res["scores"][s] = score_stats(pairs, s, a.boot, rng)
+    flags = [(x["in_view"], y["in_view"]) for _, r in pairs for x, y in r]
+    # split only when both files have the flags (files written before 2026-12-04 have none)
+    if any(fa is not None for fa, _ in flags) and any(fb is not None for _, fb in flags):
+        if any(fa != fb for fa, fb in flags):
+            raise SystemExit(f"compare_evals: {a.a} and {a.b} disagree on which crops have the "
+                             "primary light in view (different ground truths)")
+        for key, want in (("angle_deg in view", True), ("angle_deg out of view", False)):
+            res["scores"][key] = score_stats(pairs, "angle_deg", a.boot, rng,
+                                             keep=lambda x, w=want: x["in_view"] is w)
     for pano, r in pairs:
         res["per_panorama"].append({"file": pano, **{
             s: [median([x[s] for x, _ in r]), median([y[s] for _, y in r])] for s in SCORES}})
@@ -128,7 +147,10 @@ def main(argv=None):
     print(f"  {'score':10s} {'B lower':>8s} {'B higher':>9s}   median effect [95% interval]"
           "          pooled median A -> B")
     for s, v in res["scores"].items():
-        unit = "deg" if s == "angle_deg" else "log"
+        unit = "deg" if s.startswith("angle_deg") else "log"
+        if s.startswith("angle_deg "):
+            print(f"  {s} ({v['crops']} crops of {v['panoramas']} panoramas):")
+            s = ""
         print(f"  {s:10s} {v['b_lower']:8d} {v['b_higher']:9d}   {v['median_effect']:+8.4f} {unit} "
               f"[{v['ci95'][0]:+.4f}, {v['ci95'][1]:+.4f}]    {v['median_a']:.4g} -> {v['median_b']:.4g}")
     print("  per panorama (medians, A -> B):")
