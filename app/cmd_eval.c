@@ -304,19 +304,21 @@ static void put_num(FILE *f, double v)
         fputs("null", f);
 }
 
-/* Statistics of metric `metric` (0 rmse, 1 si_rmse, 2 angle, 3 scale EV) of method m over n
- * crops. */
-static int stats_of(const pl_eval_scores *s, int n, int m, int metric, double *buf,
-                    pl_eval_stats *out)
+/* Statistics of metric `metric` (0 rmse, 1 si_rmse, 2 angle, 3 scale EV) of method m over the n
+ * crops, or over those whose in_view flag is `want` when in_view is not NULL. */
+static int stats_of(const pl_eval_scores *s, int n, int m, int metric, const signed char *in_view,
+                    int want, double *buf, pl_eval_stats *out)
 {
+    int k = 0;
     for (int i = 0; i < n; i++) {
+        if (in_view && in_view[i] != want) continue;
         const pl_eval_scores *x = &s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
-        buf[i] = metric == 0   ? x->rmse
-                 : metric == 1 ? x->si_rmse
-                 : metric == 2 ? x->angle_deg
-                               : x->scale_ev;
+        buf[k++] = metric == 0   ? x->rmse
+                   : metric == 1 ? x->si_rmse
+                   : metric == 2 ? x->angle_deg
+                                 : x->scale_ev;
     }
-    return pl_eval_quartiles(buf, n, out);
+    return pl_eval_quartiles(buf, k, out);
 }
 
 static void put_stats_json(FILE *f, const char *key, const pl_eval_stats *st, int quartiles)
@@ -345,7 +347,7 @@ static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, int have_ri
         fprintf(f, "%s\"%s\":{", m ? "," : "", pl_eval_method_key(m));
         for (int q = 0; q < N_METRICS; q++) {
             pl_eval_stats st;
-            int rc = stats_of(s, n, m, q, buf, &st);
+            int rc = stats_of(s, n, m, q, NULL, 0, buf, &st);
             if (rc < 0) return rc;
             if (q) fputc(',', f);
             put_stats_json(f, metric_keys[q], &st, 1);
@@ -395,16 +397,6 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
     return 0;
 }
 
-/* The angle statistics of method m over the crops whose in_view flag is `want` (1 or 0). */
-static int angle_stats_where(const pl_eval_scores *s, const signed char *in_view, int n, int m,
-                             int want, double *buf, pl_eval_stats *out)
-{
-    int k = 0;
-    for (int i = 0; i < n; i++)
-        if (in_view[i] == want) buf[k++] = s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m].angle_deg;
-    return pl_eval_quartiles(buf, k, out);
-}
-
 static int count_where(const signed char *in_view, int n, int want)
 {
     int k = 0;
@@ -424,7 +416,7 @@ static int put_angle_by_view_json(FILE *f, const pl_eval_scores *s, const signed
         for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
             if (m == PL_EVAL_RIDGE && !have_ridge) continue;
             pl_eval_stats st;
-            int rc = angle_stats_where(s, in_view, n, m, want, buf, &st);
+            int rc = stats_of(s, n, m, 2, in_view, want, buf, &st);
             if (rc < 0) return rc;
             fputc(',', f);
             put_stats_json(f, pl_eval_method_key(m), &st, 1);
@@ -454,7 +446,7 @@ static int put_table(FILE *f, const pl_eval_scores *s, int n, int have_ridge, do
         fprintf(f, "  %-24s", pl_eval_method_label(m));
         for (int q = 0; q < N_METRICS; q++) {
             pl_eval_stats st;
-            int rc = stats_of(s, n, m, q, buf, &st);
+            int rc = stats_of(s, n, m, q, NULL, 0, buf, &st);
             if (rc < 0) return rc;
             put_cell(f, &st, q < N_METRICS - 1 ? 28 : 0);
         }
@@ -479,7 +471,7 @@ static int put_angle_by_view(FILE *f, const pl_eval_scores *s, const signed char
         fprintf(f, "  %-24s", pl_eval_method_label(m));
         for (int want = 1; want >= 0; want--) {
             pl_eval_stats st;
-            int rc = angle_stats_where(s, in_view, n, m, want, buf, &st);
+            int rc = stats_of(s, n, m, 2, in_view, want, buf, &st);
             if (rc < 0) return rc;
             put_cell(f, &st, want ? 28 : 0);
         }

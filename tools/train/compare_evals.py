@@ -15,9 +15,9 @@ of the 64 crops). This reads both files' per-crop rows, refuses files whose crop
 
 and per panorama the medians of both. When both files have eval's `primary_in_view` flags (since
 2026-12-04), the angle is also compared on the crops whose true primary light is in view and on
-those where it is outside the crop (most of them). A score eval wrote as null (the angle of a crop whose
-panorama has no extracted light) is left out of every figure, as eval's own statistics leave out
-non-finite values. --method names the row of each file to compare (model, ambient, brightest,
+those where it is outside the crop (most of them). A score eval wrote as null (the angle of a
+crop whose panorama has no extracted light) is left out of every figure, as eval's own
+statistics leave out non-finite values. --method names the row of each file to compare (model, ambient, brightest,
 ridge; default model, so two models' files). Standard library only.
 """
 import argparse
