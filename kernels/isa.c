@@ -79,11 +79,13 @@ void pl_isa_paths_of(const pl_cpu_features *f, int paths[PL_ISA_COUNT])
 
 pl_isa pl_isa_best(const int paths[PL_ISA_COUNT])
 {
-    /* Best first. AMX (its tile convolution, PARLIGHT_ISA=amx) is not chosen automatically: it
-     * has run exact only with its tile instructions emulated, never on AMX hardware, nor been
-     * timed against VNNI. int8 matters more than fp32, so AVX-VNNI goes before AVX-512F. */
-    static const pl_isa order[] = {PL_ISA_AVX512VNNI, PL_ISA_AVXVNNI, PL_ISA_AVX512F, PL_ISA_AVX2,
-                                   PL_ISA_I8MM,       PL_ISA_DOTPROD, PL_ISA_NEON};
+    /* Best first. AMX's tile convolution runs bit-exact on AMX hardware (tests/test_isa_exact.sh,
+     * test_kernels_simd_s8) and takes about half the CPU time of AVX-512 VNNI per int8 frame
+     * (docs/PERFORMANCE.md, "AMX on hardware"). int8 matters more than fp32, so AVX-VNNI goes
+     * before AVX-512F. */
+    static const pl_isa order[] = {PL_ISA_AMX,     PL_ISA_AVX512VNNI, PL_ISA_AVXVNNI,
+                                   PL_ISA_AVX512F, PL_ISA_AVX2,       PL_ISA_I8MM,
+                                   PL_ISA_DOTPROD, PL_ISA_NEON};
     for (size_t i = 0; i < sizeof order / sizeof order[0]; i++)
         if (paths[order[i]]) return order[i];
     return PL_ISA_REF;

@@ -87,9 +87,14 @@ int main(void)
     CHECK(pl_isa_best(have) == PL_ISA_AVX2 && !have[PL_ISA_AVX512F],
           "without the ZMM state: %s, expected avx2", pl_isa_name(pl_isa_best(have)));
     pl_isa_paths_of(&spr, have);
-    CHECK(have[PL_ISA_AMX] && pl_isa_best(have) == PL_ISA_AVX512VNNI,
-          "Sapphire Rapids: amx %d, picks %s (AMX is never picked by itself)", have[PL_ISA_AMX],
-          pl_isa_name(pl_isa_best(have)));
+    CHECK(have[PL_ISA_AMX] && pl_isa_best(have) == PL_ISA_AMX, "Sapphire Rapids: amx %d, picks %s",
+          have[PL_ISA_AMX], pl_isa_name(pl_isa_best(have)));
+    pl_cpu_features spr_denied = spr; /* Linux refused the tile state (ARCH_REQ_XCOMP_PERM) */
+    spr_denied.amx_granted = 0;
+    pl_isa_paths_of(&spr_denied, have);
+    CHECK(!have[PL_ISA_AMX] && pl_isa_best(have) == PL_ISA_AVX512VNNI,
+          "Sapphire Rapids without the tile state: amx %d, picks %s, expected avx512vnni",
+          have[PL_ISA_AMX], pl_isa_name(pl_isa_best(have)));
     const pl_cpu_features none = {0};
     pl_isa_paths_of(&none, have);
     CHECK(pl_isa_best(have) == PL_ISA_REF, "no AVX: %s", pl_isa_name(pl_isa_best(have)));
