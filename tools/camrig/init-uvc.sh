@@ -97,7 +97,8 @@ for d in /sys/class/video4linux/* /sys/bus/media/devices/*; do
     [ -f "$d/dev" ] && echo I:1 >/run/udev/data/c$(cat "$d/dev")
 done
 
-# step NAME CMD...: runs CMD under a timeout, relays its output and status once it is done.
+# step NAME CMD...: runs CMD under a timeout (a hang guard, 400 s: TCG on a loaded host is slow),
+# relays its output and status once it is done.
 # step_format_retry NAME CMD...: the same, but runs CMD once more when the first run ended with
 # the driver choosing another format than the one asked for: the gadget's known race
 # (uvc-gadget.c, SET_CUR overtaken: the host's PROBE data is lost and the device answers with its
@@ -110,11 +111,11 @@ run_step() {
     name=$2
     shift 2
     emit "@@BEGIN $name"
-    timeout 150 "$@" >/tmp/out 2>/tmp/err
+    timeout 400 "$@" >/tmp/out 2>/tmp/err
     rc=$?
     if [ "$retry" = 1 ] && [ $rc != 0 ] && grep -q 'the driver set' /tmp/err; then
         first=$(cat /tmp/err)
-        timeout 150 "$@" >/tmp/out 2>/tmp/err
+        timeout 400 "$@" >/tmp/out 2>/tmp/err
         rc=$?
         echo "(retried once: the first run said: $first)" >>/tmp/err
     fi
