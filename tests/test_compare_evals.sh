@@ -43,6 +43,8 @@ json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, 50, 40]), open(f"{t}/
 json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [10, 20, 30, 40], yaws=(0, 90)), open(f"{t}/c.json", "w"))
 # B with its third angle null (eval writes null for a crop whose panorama has no light)
 json.dump(f([0.5, 2, 1, 1], [0.05, 0.2, 0.6, 0.2], [0, 20, None, 40]), open(f"{t}/n.json", "w"))
+# B with two answers past 90 deg and one at exactly 45: tail over 90 A 0 -> B 2, within 45 4 -> 1
+json.dump(f([1, 1, 1, 1], [0.1, 0.2, 0.3, 0.4], [100, 45, 95, 60]), open(f"{t}/t.json", "w"))
 # the same pair with eval's primary_in_view flags: crops 1 and 4 in view (angle differences -10
 # and 0: median -5), 2 and 3 out of view (0 and +20: median +10); and B with other flags
 V = [True, False, False, True]
@@ -97,7 +99,18 @@ grep -q "in view" "$T/out" && fail "files without flags got an in-view row"
 grep -q "in view" "$T/out" && fail "a file without flags got an in-view row"
 "$PY" "$C" "$T/av.json" "$T/bw.json" >"$T/out" 2>"$T/err" && fail "files whose flags disagree were compared"
 grep -q "disagree on which crops have the primary light in view" "$T/err" || fail "disagreeing flags: $(cat "$T/err")"
-echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out, angle split by view"
+"$PY" "$C" "$T/a.json" "$T/t.json" --json >"$T/at.json" 2>"$T/err" || fail "tail pair: $(cat "$T/err")"
+"$PY" - "$T/at.json" "$T/an.json" <<'PY' || fail "angle tail: wrong counts ($(cat "$T/at.json"))"
+import json, sys
+t = json.load(open(sys.argv[1]))["angle_tail"]
+n = json.load(open(sys.argv[2]))["angle_tail"]   # B's null angle counts in neither
+print(t, n)
+sys.exit(0 if t == {"over_90": [0, 2], "within_45": [4, 1]} and n == {"over_90": [0, 0], "within_45": [4, 3]} else 1)
+PY
+"$PY" "$C" "$T/a.json" "$T/t.json" >"$T/out" 2>"$T/err" || fail "tail table: $(cat "$T/err")"
+grep -q "angle tail: crops over 90 deg 0 -> 2, within 45 deg 4 -> 1" "$T/out" ||
+    fail "table lacks the tail line: $(cat "$T/out")"
+echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out, angle split by view, tail counts"
 "$PY" "$C" "$T/a.json" "$T/c.json" >"$T/out" 2>"$T/err" && fail "different yaws were compared"
 grep -q "p1.hdr: .*score different crops" "$T/err" || fail "different crops: $(cat "$T/err")"
 echo '{"lights": []}' >"$T/lights.json"

@@ -13,7 +13,9 @@ of the 64 crops). This reads both files' per-crop rows, refuses files whose crop
                   (crops of one room are not independent), and both pooled medians;
   angle_deg       the same with the difference B - A in degrees;
 
-and per panorama the medians of both. When both files have eval's `primary_in_view` flags (since
+the angle's tail (how many crops are off by more than 90 deg and how many within 45 deg, in A and
+in B: a change can cut the worst answers and leave the median where it was, MODEL_CARD "Direction
+first through the whole network"), and per panorama the medians of both. When both files have eval's `primary_in_view` flags (since
 2026-12-04), the angle is also compared on the crops whose true primary light is in view and on
 those where it is outside the crop (most of them). A score eval wrote as null (the angle of a
 crop whose panorama has no extracted light) is left out of every figure, as eval's own
@@ -135,6 +137,11 @@ def main(argv=None):
         for key, want in (("angle_deg in view", True), ("angle_deg out of view", False)):
             res["scores"][key] = score_stats(pairs, "angle_deg", a.boot, rng,
                                              keep=lambda x, w=want: x["in_view"] is w)
+    angles = [(x["angle_deg"], y["angle_deg"]) for _, r in pairs for x, y in r]
+    res["angle_tail"] = {name: [sum(1 for t in angles if math.isfinite(t[i]) and test(t[i]))
+                                for i in (0, 1)]
+                         for name, test in (("over_90", lambda v: v > 90),
+                                            ("within_45", lambda v: v <= 45))}
     for pano, r in pairs:
         res["per_panorama"].append({"file": pano, **{
             s: [median([x[s] for x, _ in r]), median([y[s] for _, y in r])] for s in SCORES}})
@@ -153,6 +160,9 @@ def main(argv=None):
             s = ""
         print(f"  {s:10s} {v['b_lower']:8d} {v['b_higher']:9d}   {v['median_effect']:+8.4f} {unit} "
               f"[{v['ci95'][0]:+.4f}, {v['ci95'][1]:+.4f}]    {v['median_a']:.4g} -> {v['median_b']:.4g}")
+    t = res["angle_tail"]
+    print(f"  angle tail: crops over 90 deg {t['over_90'][0]} -> {t['over_90'][1]}, "
+          f"within 45 deg {t['within_45'][0]} -> {t['within_45'][1]}")
     print("  per panorama (medians, A -> B):")
     for p in res["per_panorama"]:
         print(f"    {p['file']:32s} " + "  ".join(
