@@ -69,9 +69,10 @@ Direction first (not in the paper; off by default): --w-primary W adds W times p
 step 1, the angular error of the primary light (the one pl_lighting_primary reports and an AR app
 casts shadows from), which neither the map's nor the sphere's L2 measures. tools/train/heads.py
 trains the fc and heads of a finished .plm with it on the frozen encoder (measured, not shipped:
-MODEL_CARD.md, "Direction first"; through the whole network, --w-primary 1 kept int8 within its
-targets and moved eval/'s worst angles but not its median: "Direction first through the whole
-network").
+MODEL_CARD.md, "Direction first"; through the whole network, --w-primary 1 cut eval/'s crops
+off by more than 90 deg from 24-25 to 15 in two pairs of runs but not the median angle, and
+kept int8 within its targets in one of the two: "Direction first through the whole network",
+"The direction term, replicated").
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
