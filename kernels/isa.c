@@ -80,7 +80,7 @@ void pl_isa_paths_of(const pl_cpu_features *f, int paths[PL_ISA_COUNT])
 pl_isa pl_isa_best(const int paths[PL_ISA_COUNT])
 {
     /* Best first. AMX's tile convolution runs bit-exact on AMX hardware (tests/test_isa_exact.sh,
-     * test_kernels_simd_s8) and takes about half the CPU time of AVX-512 VNNI per int8 frame
+     * test_kernels_simd_s8) and takes 0.46-0.69x AVX-512 VNNI's time per int8 frame
      * (docs/PERFORMANCE.md, "AMX on hardware"). int8 matters more than fp32, so AVX-VNNI goes
      * before AVX-512F. */
     static const pl_isa order[] = {PL_ISA_AMX,     PL_ISA_AVX512VNNI, PL_ISA_AVXVNNI,

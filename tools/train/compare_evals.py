@@ -13,14 +13,15 @@ of the 64 crops). This reads both files' per-crop rows, refuses files whose crop
                   (crops of one room are not independent), and both pooled medians;
   angle_deg       the same with the difference B - A in degrees;
 
-the angle's tail (how many crops are off by more than 90 deg and how many within 45 deg, in A and
-in B: a change can cut the worst answers and leave the median where it was, MODEL_CARD "Direction
-first through the whole network"), and per panorama the medians of both. When both files have eval's `primary_in_view` flags (since
-2026-12-04), the angle is also compared on the crops whose true primary light is in view and on
-those where it is outside the crop (most of them). A score eval wrote as null (the angle of a
-crop whose panorama has no extracted light) is left out of every figure, as eval's own
-statistics leave out non-finite values. --method names the row of each file to compare (model, ambient, brightest,
-ridge; default model, so two models' files). Standard library only.
+the angle's tail (how many crops are off by more than 90 deg and how many within 45 deg, in A
+and in B: a change can cut the worst answers and leave the median where it was, MODEL_CARD
+"Direction first through the whole network"), and per panorama the medians of both. When both
+files have eval's `primary_in_view` flags (since 2026-12-04), the angle is also compared on the
+crops whose true primary light is in view and on those where it is outside the crop (most of
+them). A score eval wrote as null (the angle of a crop whose panorama has no extracted light) is
+left out of every figure, as eval's own statistics leave out non-finite values. --method names
+the row of each file to compare (model, ambient, brightest, ridge; default model, so two models'
+files). Standard library only.
 """
 import argparse
 import json
