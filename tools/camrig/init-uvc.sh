@@ -97,13 +97,13 @@ for d in /sys/class/video4linux/* /sys/bus/media/devices/*; do
     [ -f "$d/dev" ] && echo I:1 >/run/udev/data/c$(cat "$d/dev")
 done
 
-# step NAME CMD...: runs CMD under a timeout (a hang guard, 400 s: TCG on a loaded host is slow),
-# relays its output and status once it is done.
+# step NAME CMD...: runs CMD under STEP_TIMEOUT, relays its output and status once it is done.
 # step_format_retry NAME CMD...: the same, but runs CMD once more when the first run ended with
 # the driver choosing another format than the one asked for: the gadget's known race
 # (uvc-gadget.c, SET_CUR overtaken: the host's PROBE data is lost and the device answers with its
 # previous format). parlight's error there is right; the second run's output is the step's, with
 # a note of the retry on its stderr.
+STEP_TIMEOUT=400 # s; a hang guard: TCG on a loaded host is 5x slower than idle
 step() { run_step 0 "$@"; }
 step_format_retry() { run_step 1 "$@"; }
 run_step() {
@@ -111,11 +111,11 @@ run_step() {
     name=$2
     shift 2
     emit "@@BEGIN $name"
-    timeout 400 "$@" >/tmp/out 2>/tmp/err
+    timeout $STEP_TIMEOUT "$@" >/tmp/out 2>/tmp/err
     rc=$?
     if [ "$retry" = 1 ] && [ $rc != 0 ] && grep -q 'the driver set' /tmp/err; then
         first=$(cat /tmp/err)
-        timeout 400 "$@" >/tmp/out 2>/tmp/err
+        timeout $STEP_TIMEOUT "$@" >/tmp/out 2>/tmp/err
         rc=$?
         echo "(retried once: the first run said: $first)" >>/tmp/err
     fi

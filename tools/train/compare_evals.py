@@ -138,11 +138,10 @@ def main(argv=None):
         for key, want in (("angle_deg in view", True), ("angle_deg out of view", False)):
             res["scores"][key] = score_stats(pairs, "angle_deg", a.boot, rng,
                                              keep=lambda x, w=want: x["in_view"] is w)
-    angles = [(x["angle_deg"], y["angle_deg"]) for _, r in pairs for x, y in r]
-    res["angle_tail"] = {name: [sum(1 for t in angles if math.isfinite(t[i]) and test(t[i]))
-                                for i in (0, 1)]
-                         for name, test in (("over_90", lambda v: v > 90),
-                                            ("within_45", lambda v: v <= 45))}
+    cols = ([x["angle_deg"] for _, r in pairs for x, _ in r],
+            [y["angle_deg"] for _, r in pairs for _, y in r])   # NaN (null) counts in neither
+    res["angle_tail"] = {"over_90": [sum(v > 90 for v in c) for c in cols],
+                         "within_45": [sum(v <= 45 for v in c) for c in cols]}
     for pano, r in pairs:
         res["per_panorama"].append({"file": pano, **{
             s: [median([x[s] for x, _ in r]), median([y[s] for _, y in r])] for s in SCORES}})
