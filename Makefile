@@ -129,7 +129,11 @@ WARN     := -Wall -Wextra -Wshadow -Wvla -Wpointer-arith -Wstrict-prototypes -Wm
             -Wformat=2 -Wundef
 OPT      ?= -O2 -g
 CPPFLAGS += -Iinclude -I. -D_GNU_SOURCE $(FEATURE_FLAGS)
-CFLAGS   += -std=c11 $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread $(SAN_FLAGS)
+# -ffp-contract=off (what -std=c11 already means to gcc, spelled out for other compilers): the
+# SIMD kernels that equal the reference bit for bit (pooling, nn_fc_w8_f32) need a*b + c to stay
+# two roundings on every path; the fp32 GEMMs ask for their fused multiply-adds explicitly.
+CFLAGS   += -std=c11 -ffp-contract=off $(OPT) $(WARN) -fno-strict-aliasing $(BOARD_CFLAGS) -pthread \
+            $(SAN_FLAGS)
 CXXFLAGS += -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(BOARD_CFLAGS) -pthread \
             $(OPENCV_CFLAGS) $(EXR_CFLAGS) $(LIBCAMERA_CFLAGS) $(SAN_FLAGS)
 LDFLAGS  += $(SAN_FLAGS)

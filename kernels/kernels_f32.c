@@ -21,6 +21,7 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
     SLOT(maxpool, nn_maxpool2d_f32__ref);
     SLOT(avgpool, nn_avgpool2d_f32__ref);
     SLOT(fc, nn_fc_f32__ref);
+    SLOT(fc_w8, nn_fc_w8_f32__ref);
 #if defined(__x86_64__)
     /* AVX-512F is all the AVX-512 kernels need: a Skylake-SP (no VNNI) runs them too */
     if (pl_isa_includes(isa, PL_ISA_AVX512F)) {
@@ -29,6 +30,7 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
         SLOT(wino, nn_conv_wino_f32_8x48__avx512f);
         SLOT(bn_relu, nn_bn_relu_f32__avx512f);
         SLOT(fc, nn_fc_f32__avx512f);
+        SLOT(fc_w8, nn_fc_w8_f32__avx512f);
         SLOT(maxpool, nn_maxpool2d_f32__avx512f);
         SLOT(avgpool, nn_avgpool2d_f32__avx512f);
     } else if (pl_isa_includes(isa, PL_ISA_AVX2)) {
@@ -37,6 +39,7 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
         SLOT(wino, nn_conv_wino_f32_4x24__avx2);
         SLOT(bn_relu, nn_bn_relu_f32__avx2);
         SLOT(fc, nn_fc_f32__avx2);
+        SLOT(fc_w8, nn_fc_w8_f32__avx2);
         SLOT(maxpool, nn_maxpool2d_f32__avx2);
         SLOT(avgpool, nn_avgpool2d_f32__avx2);
     }
@@ -48,6 +51,7 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
         SLOT(conv, nn_conv_gemm_f32_8x12__neon);
         SLOT(wino, nn_conv_wino_f32_8x12__neon);
         SLOT(fc, nn_fc_f32__neon);
+        SLOT(fc_w8, nn_fc_w8_f32__neon);
         SLOT(maxpool, nn_maxpool2d_f32__neon);
         SLOT(avgpool, nn_avgpool2d_f32__neon);
     }
@@ -60,7 +64,7 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
 
 int pl_kernels_f32_list(const pl_kernels_f32 *t, const char **op, const char **impl, int max)
 {
-    const char *ops[8], *impls[8];
+    const char *ops[9], *impls[9];
     int n = 0;
     if (t->packed) {
         ops[n] = "conv (7x7, 1x1+bn, 3x3)";
@@ -91,6 +95,8 @@ int pl_kernels_f32_list(const pl_kernels_f32 *t, const char **op, const char **i
     impls[n++] = t->avgpool_name;
     ops[n] = "fc";
     impls[n++] = t->fc_name;
+    ops[n] = "fc, int8-stored weights";
+    impls[n++] = t->fc_w8_name;
     for (int i = 0; i < n && i < max; i++) {
         if (op) op[i] = ops[i];
         if (impl) impl[i] = impls[i];

@@ -27,6 +27,7 @@
 #define PL_KERNELS_KERNELS_F32_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "kernels/isa.h"
 #include "kernels/ref/nn_ref.h"
@@ -61,6 +62,13 @@ typedef void (*pl_f32_pool_fn)(const nn_pool_params *p, const float *in, float *
 typedef void (*pl_f32_fc_fn)(const float *in, int n_in, const float *w, const float *bias,
                              int relu, float *out, int o_begin, int o_end);
 
+/* nn_fc_w8_f32 (kernels/ref/nn_ref.h): a float layer with int8-stored weights, as the int8
+ * executor runs a layer kept float; every implementation equals the reference bit for bit, so
+ * the int8 path's results stay the same on every instruction-set path */
+typedef void (*pl_f32_fc_w8_fn)(const float *in, int n_rows, int n_in, const int8_t *w,
+                                const float *wscale, const float *bias, int relu, float *out,
+                                int out_stride, int o_begin, int o_end);
+
 typedef struct pl_kernels_f32 {
     int packed;          /* 1: `conv` is filled and convolutions take packed weights */
     pl_f32_conv_fn conv; /* NULL on the reference path (nn_conv2d_f32__ref instead) */
@@ -68,7 +76,9 @@ typedef struct pl_kernels_f32 {
     pl_f32_bn_relu_fn bn_relu;
     pl_f32_pool_fn maxpool, avgpool;
     pl_f32_fc_fn fc;
-    const char *conv_name, *wino_name, *bn_relu_name, *maxpool_name, *avgpool_name, *fc_name;
+    pl_f32_fc_w8_fn fc_w8; /* every path, the reference included */
+    const char *conv_name, *wino_name, *bn_relu_name, *maxpool_name, *avgpool_name, *fc_name,
+        *fc_w8_name;
 } pl_kernels_f32;
 
 /* Fills every slot with the fastest implementation `isa` includes (kernels/isa.h). */

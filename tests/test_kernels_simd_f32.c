@@ -13,6 +13,10 @@
  *  - bn_relu, maxpool2d (k 1..4, strides, padding; and 3x3/2) and avgpool2d (and 2x2/2): bit
  *    for bit (the same operations in the same order per output);
  *  - fc: the same relative tolerance, n_in with every remainder mod 32 and the network's sizes;
+ *  - fc_w8 (a layer the int8 executor keeps float, int8-stored weights): bit for bit, with one
+ *    input row and with several (every remainder of the paths' row and output blocks), n_in with
+ *    every remainder mod 32, past the reference's 4096-float row buffer, and the shipped
+ *    network's kept-float transition3 (12 pooled pixels, 1024 -> 512) and fc;
  *  - Winograd F(2x2, 3x3) and F(4x4, 3x3) (`wino`) against the direct 3x3 convolution summed in
  *    double: random shapes (maps up to 31x37 with partial tiles, every map from 1x1 to 7x9, in_c
  *    1..300, out_c 1..40, more than one chunk of input channels, bias, ReLU, a channel offset)
@@ -235,6 +239,40 @@ static double fc_case(const pl_kernels_f32 *t, const char *isa, int n_in, int n_
     free(ref);
     free(got);
     return worst;
+}
+
+/* fc_w8 against its reference, bit for bit: rows x n_in -> outputs [o0, o1) of n_out, written
+ * at a row stride wider than n_out (the columns outside [o0, o1) must stay untouched). */
+static void fc_w8_case(const pl_kernels_f32 *t, const char *isa, int rows, int n_in, int n_out)
+{
+    const int stride = n_out + 3;
+    const size_t n_o = (size_t)rows * (size_t)stride;
+    float *x = xmalloc((size_t)rows * n_in), *ws = xmalloc((size_t)n_out), *b = xmalloc((size_t)n_out);
+    float *ref = xmalloc(n_o), *got = xmalloc(n_o);
+    int8_t *w = malloc((size_t)n_in * (size_t)n_out);
+    if (!w) {
+        printf("out of memory\n");
+        exit(1);
+    }
+    fill(x, (size_t)rows * n_in, 2.0f);
+    for (size_t i = 0; i < (size_t)n_in * n_out; i++) w[i] = (int8_t)rint_in(-128, 127);
+    for (int o = 0; o < n_out; o++) ws[o] = (0.5f + 0.5f * rfloat()) / (127.0f * sqrtf((float)n_in));
+    fill(b, (size_t)n_out, 0.5f);
+    const int with_bias = rint_in(0, 3) > 0, relu = rint_in(0, 1);
+    const int o0 = rint_in(0, n_out - 1), o1 = rint_in(o0 + 1, n_out);
+    for (size_t i = 0; i < n_o; i++) ref[i] = got[i] = SENTINEL;
+    nn_fc_w8_f32__ref(x, rows, n_in, w, ws, with_bias ? b : NULL, relu, ref, stride, o0, o1);
+    t->fc_w8(x, rows, n_in, w, ws, with_bias ? b : NULL, relu, got, stride, o0, o1);
+    CHECK(!memcmp(ref, got, n_o * sizeof(float)),
+          "%s fc_w8 %d rows x %d -> outputs [%d, %d) of %d (bias %d, relu %d): differs from the "
+          "reference",
+          isa, rows, n_in, o0, o1, n_out, with_bias, relu);
+    free(x);
+    free(ws);
+    free(b);
+    free(ref);
+    free(got);
+    free(w);
 }
 
 /* Lavin and Gray's transforms, for the error bound (the kernels carry their own copies) */
@@ -562,7 +600,8 @@ int main(void)
         for (size_t qi = 0; qi < pi && same < 0; qi++) {
             pl_kernels q;
             if (pl_kernels_for(paths[qi], &q) == 0 && q.f32.packed && q.f32.conv == k.f32.conv &&
-                q.f32.wino == k.f32.wino && q.f32.fc == k.f32.fc && q.f32.bn_relu == k.f32.bn_relu &&
+                q.f32.wino == k.f32.wino && q.f32.fc == k.f32.fc && q.f32.fc_w8 == k.f32.fc_w8 &&
+                q.f32.bn_relu == k.f32.bn_relu &&
                 q.f32.maxpool == k.f32.maxpool && q.f32.avgpool == k.f32.avgpool)
                 same = (int)qi;
         }
@@ -578,6 +617,14 @@ int main(void)
             if ((e = random_conv(&k.f32, isa)) > worst) worst = e;
         for (int n_in = 1; n_in <= 70; n_in++)
             if ((e = fc_case(&k.f32, isa, n_in, rint_in(1, 13), rint_in(0, 1))) > worst) worst = e;
+        for (int n_in = 1; n_in <= 70; n_in++)
+            fc_w8_case(&k.f32, isa, rint_in(1, 9), n_in, rint_in(1, 9));
+        for (int iter = 0; iter < 20; iter++)
+            fc_w8_case(&k.f32, isa, rint_in(1, 13), rint_in(1, 300), rint_in(1, 40));
+        fc_w8_case(&k.f32, isa, 1, 4096 + 33, 5); /* past the reference's row buffer */
+        fc_w8_case(&k.f32, isa, 3, 4096 + 33, 5);
+        fc_w8_case(&k.f32, isa, 12, 1024, 512);   /* the shipped network's transition3 */
+        fc_w8_case(&k.f32, isa, 1, 3072, 512);   /* and its fc (z: 1024 channels x 3 bands) */
         for (int iter = 0; iter < 100; iter++) {
             bn_relu_case(&k.f32, isa);
             pool_case(&k.f32, isa, 0, 0, 0);
@@ -587,11 +634,11 @@ int main(void)
         }
         if ((e = network_shapes(&k.f32, isa)) > worst) worst = e;
         wino_cases(&k.f32, isa);
-        printf("path %s: %s (%s, %s, %s, %s, %s, %s); largest error / magnitude %.2e (limit %.0e); "
+        printf("path %s: %s (%s, %s, %s, %s, %s, %s, %s); largest error / magnitude %.2e (limit %.0e); "
                "Winograd largest error / bound: F(2x2) %.2e, F(4x4) %.2e (limit 1), "
                "error / sum |w x|: F(2x2) %.2e, F(4x4) %.2e\n",
                isa, failures == before ? "ok" : "FAILED", k.f32.conv_name, k.f32.wino_name,
-               k.f32.fc_name, k.f32.bn_relu_name, k.f32.maxpool_name, k.f32.avgpool_name, worst,
+               k.f32.fc_name, k.f32.fc_w8_name, k.f32.bn_relu_name, k.f32.maxpool_name, k.f32.avgpool_name, worst,
                TOL, wino_worst_bound[2], wino_worst_bound[4], wino_worst_direct[2],
                wino_worst_direct[4]);
         for (int mi = 0; mi < 5; mi++)

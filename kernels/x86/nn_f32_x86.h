@@ -39,4 +39,12 @@ void nn_fc_f32__avx512f(const float *in, int n_in, const float *w, const float *
 void nn_fc_f32__avx2(const float *in, int n_in, const float *w, const float *bias, int relu,
                      float *out, int o_begin, int o_end);
 
+/* nn_fc_w8_f32__<isa>.c (kernels/nn_fc_w8_f32_tmpl.h): bit for bit equal to the reference */
+void nn_fc_w8_f32__avx512f(const float *in, int n_rows, int n_in, const int8_t *w,
+                           const float *wscale, const float *bias, int relu, float *out,
+                           int out_stride, int o_begin, int o_end);
+void nn_fc_w8_f32__avx2(const float *in, int n_rows, int n_in, const int8_t *w,
+                        const float *wscale, const float *bias, int relu, float *out,
+                        int out_stride, int o_begin, int o_end);
+
 #endif
