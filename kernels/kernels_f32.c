@@ -51,7 +51,6 @@ void pl_kernels_f32_fill(pl_kernels_f32 *t, pl_isa isa)
         SLOT(conv, nn_conv_gemm_f32_8x12__neon);
         SLOT(wino, nn_conv_wino_f32_8x12__neon);
         SLOT(fc, nn_fc_f32__neon);
-        SLOT(fc_w8, nn_fc_w8_f32__neon);
         SLOT(maxpool, nn_maxpool2d_f32__neon);
         SLOT(avgpool, nn_avgpool2d_f32__neon);
     }

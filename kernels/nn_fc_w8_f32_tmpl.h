@@ -1,5 +1,6 @@
-/* nn_fc_w8_f32 (kernels/ref/nn_ref.h) on SIMD, equal to the reference bit for bit, shared by the
- * x86 and Arm paths (kernels/x86/nn_fc_w8_f32__*.c, kernels/arm/nn_fc_w8_f32__neon.c).
+/* nn_fc_w8_f32 (kernels/ref/nn_ref.h) on SIMD, equal to the reference bit for bit
+ * (kernels/x86/nn_fc_w8_f32__*.c; Arm keeps the reference, which gcc vectorises for NEON: a NEON
+ * build of this file was predicted slower on the Pi 5, kernels/arm/nn_f32_arm.h).
  *
  * The reference fixes each dot product's order: 32 partial sums, lane k taking the products of
  * inputs i with i % 32 == k in increasing i, then reduced pairwise (k += k + 16, k += k + 8, ...),
