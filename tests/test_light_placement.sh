@@ -3,7 +3,8 @@
 # hand-made `parlight eval --json` rows whose answers are worked out below: an estimate equal to
 # the ground truth (every angle 0, the closest light always ranked first, the other-room control
 # not 0), the same lights with the energies turned round (the closest light always last, the
-# primary 90 deg off, best of N still 0), and refusals of a non-eval JSON and of rows without
+# primary 90 deg off, best of N still 0), one answer for every crop (fixed slots; the control
+# equals the answer), and refusals of a non-eval JSON and of rows without
 # lights, naming the problem. Standard library only: no build needed.
 # Env: PL_TEST_TMP (tests/run.sh). Exit 0 pass, 1 fail.
 set -u
@@ -35,14 +36,20 @@ def f(rgbs_est, row="estimate"):
 json.dump(f((3, 2, 1)), open(f"{t}/same.json", "w"))
 json.dump(f((1, 2, 3)), open(f"{t}/turned.json", "w"))
 json.dump(f((3, 2, 1), row="other"), open(f"{t}/norow.json", "w"))
+# every crop answers panorama 0's lights: fixed slots, and the other-room control is the answer
+fixed = f((3, 2, 1))
+for p in fixed["panoramas"]:
+    for c in p["crops"]:
+        c["estimate"] = {"lights": lights(0, (3, 2, 1)), "ambient": [0, 0, 0]}
+json.dump(fixed, open(f"{t}/fixed.json", "w"))
 json.dump({"lights": []}, open(f"{t}/lights.json", "w"))
 PY
 
-"$PY" "$L" "$T/same.json" "$T/turned.json" --json --draws 50 >"$T/out.json" 2>"$T/err" ||
+"$PY" "$L" "$T/same.json" "$T/turned.json" "$T/fixed.json" --json --draws 50 >"$T/out.json" 2>"$T/err" ||
     fail "light_placement: $(cat "$T/err")"
 "$PY" - "$T/out.json" <<'PY' || fail "wrong figures: $(cat "$T/out.json")"
 import json, sys
-same, turned = [json.loads(l) for l in open(sys.argv[1])]
+same, turned, fixed = [json.loads(l) for l in open(sys.argv[1])]
 assert same["crops"] == 12 and turned["crops"] == 12, "crops"
 assert same["primary_deg"] == 0 and same["best_of_n_deg"] == 0, "same: angles"
 assert same["best_within_45"] == 12 and same["closest_rank"] == [12, 0, 0], "same: rank"
@@ -52,6 +59,17 @@ o = same["other_room"]
 assert o["best_of_n_deg"] > 0 and o["draws"] == 50, "same: other room"
 assert abs(turned["primary_deg"] - 90) < 1e-9, "turned: primary 90"
 assert turned["best_of_n_deg"] == 0 and turned["closest_rank"] == [0, 0, 12], "turned: rank"
+# same: light 1 alternates +x / -x over the panoramas (8 crops +x, 4 -x): mean (1/3, 0, 0), so
+# the median angle to it is 0; fixed: every slot exactly in place, and another room's answer is
+# this crop's answer
+sl = same["slots"][0]
+assert abs(sl["resultant"] - 1 / 3) < 1e-9 and sl["mean_dir"] == [1.0, 0.0, 0.0], "same: slot 1"
+assert all(d["median_angle_deg"] == 0 and abs(d["resultant"] - 1) < 1e-9 for d in fixed["slots"]), "fixed: slots"
+fo = fixed["other_room"]
+assert fo["best_of_n_deg"] == fixed["best_of_n_deg"] and fo["primary_deg"] == fixed["primary_deg"], "fixed: control"
+# panorama 1's primary is -x: 4 crops at 180 deg (best of N 90, its closest light the 2nd)
+assert fixed["primary_deg"] == 0 and fixed["best_of_n_deg"] == 0, "fixed: angles"
+assert fixed["closest_rank"] == [8, 4, 0] and fixed["best_within_45"] == 8, "fixed: rank"
 PY
 "$PY" "$L" "$T/same.json" --draws 20 >"$T/txt" 2>"$T/err" || fail "text output: $(cat "$T/err")"
 grep -q "the closest light is the estimate's #1 in 12, #2 in 0, #3 in 0 crops" "$T/txt" ||

@@ -19,7 +19,11 @@ Per file, over the crops whose ground truth has a light:
                 random crop of another panorama (--draws times, the 2.5-97.5% range of the
                 medians over draws): what the answers are worth without this crop. A model whose
                 best-of-N is no lower than the other-room figure places its lights as it would
-                in any room.
+                in any room;
+  slots         per output light (the heads' light 1, 2, ...): its mean direction over all crops
+                and the median angle of its directions to that mean. A few degrees means the head
+                puts that light in one place whatever the frame, and only its colour and size
+                (hence which light is the primary) follow the image.
 
 Directions are compared in each crop's camera frame; eval's crops share the pitch (0 unless
 --pitch was given), so "up" is the same in every crop and the other-room control keeps what the
@@ -112,6 +116,14 @@ def placement(crops, draws, seed):
         ctl_best.append(median(x[1] for x in t))
         ctl_primary.append(median(x[0] for x in t))
 
+    slots = []
+    for i in range(n_lights):
+        dirs = [L[i]["dir"] for _, _, L in crops if i < len(L)]
+        m = [sum(v[k] for v in dirs) / len(dirs) for k in range(3)]
+        r = math.sqrt(sum(x * x for x in m))
+        slots.append({"mean_dir": [x / r for x in m] if r > 0 else [0.0, 0.0, 0.0],
+                      "resultant": r, "median_angle_deg": median(angle(v, m) for v in dirs)})
+
     def span(v):
         v = sorted(v)
         return [v[int(0.025 * (len(v) - 1))], v[int(round(0.975 * (len(v) - 1)))]]
@@ -122,6 +134,7 @@ def placement(crops, draws, seed):
         "best_of_n_deg": median(x[1] for x in s),
         "best_within_45": sum(x[1] <= 45 for x in s),
         "closest_rank": rank,
+        "slots": slots,
         "other_room": {"draws": draws, "best_of_n_deg": median(ctl_best),
                        "best_of_n_range": span(ctl_best), "primary_deg": median(ctl_primary),
                        "primary_range": span(ctl_primary)},
@@ -153,6 +166,9 @@ def main():
         print("  the closest light is the estimate's " +
               ", ".join(f"#{k + 1} in {c}" for k, c in enumerate(r["closest_rank"])) +
               " crops (by energy)")
+        print("  slots: " + "; ".join(
+            f"light {k + 1} ({d['mean_dir'][0]:.2f}, {d['mean_dir'][1]:.2f}, {d['mean_dir'][2]:.2f}) "
+            f"+-{d['median_angle_deg']:.1f} deg" for k, d in enumerate(r["slots"])))
 
 
 if __name__ == "__main__":
