@@ -6,15 +6,17 @@
  * inputs i with i % 32 == k in increasing i, then reduced pairwise (k += k + 16, k += k + 8, ...),
  * then the last n_in % 32 products one by one, then wscale * sum + bias and the ReLU. The 32 lanes
  * are NV vectors of VL floats here, each multiplied and added separately (no fused multiply-add:
- * the build's -std=c11 keeps gcc from contracting them, as it does the reference's), so every
+ * the build's -ffp-contract=off keeps the compiler from contracting them, as it does the
+ * reference's), so every
  * partial sum sees the same roundings in the same order; only the pairwise tail is done in plain
  * C, once per output. The int8 weights are widened to float (exact) as they are read.
  *
  * Register blocking: RB input rows x OB weight rows share each weight vector and each input
  * vector (a kept-float transition has its pooled pixels as rows; the kept-float fc one row, with
  * OB1 weight rows at a time). The including file defines FCW8_FN (the name), FCW8_VL (floats per
- * vector), FCW8_LOAD_W(p) (VL int8 at p as a vector of floats), FCW8_RB, FCW8_OB and FCW8_OB1, chosen so that RB*OB*NV accumulators, OB*NV weight
- * vectors and one input vector fit the path's registers. */
+ * vector), FCW8_LOAD_W(p) (VL int8 at p as a vector of floats), FCW8_RB, FCW8_OB and FCW8_OB1,
+ * chosen so that RB*OB*NV accumulators, OB*NV weight vectors and one input vector fit the path's
+ * registers. */
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
