@@ -4,8 +4,8 @@
 # the ground truth (every angle 0, the closest light always ranked first, the other-room control
 # not 0), the same lights with the energies turned round (the closest light always last, the
 # primary 90 deg off, best of N still 0), one answer for every crop (fixed slots; the control
-# equals the answer), and refusals of a non-eval JSON and of rows without
-# lights, naming the problem. Standard library only: no build needed.
+# equals the answer), and refusals of a non-eval JSON, of rows without lights and of a light
+# without its solid angle, naming the problem. Standard library only: no build needed.
 # Env: PL_TEST_TMP (tests/run.sh). Exit 0 pass, 1 fail.
 set -u
 cd "$(dirname "$0")/.."
@@ -43,6 +43,9 @@ for p in fixed["panoramas"]:
         c["estimate"] = {"lights": lights(0, (3, 2, 1)), "ambient": [0, 0, 0]}
 json.dump(fixed, open(f"{t}/fixed.json", "w"))
 json.dump({"lights": []}, open(f"{t}/lights.json", "w"))
+bad = f((3, 2, 1))
+del bad["panoramas"][1]["crops"][2]["estimate"]["lights"][0]["solid_angle_sr"]
+json.dump(bad, open(f"{t}/bad.json", "w"))
 PY
 
 "$PY" "$L" "$T/same.json" "$T/turned.json" "$T/fixed.json" --json --draws 50 >"$T/out.json" 2>"$T/err" ||
@@ -80,6 +83,9 @@ echo "ok  an exact estimate, the same lights ranked the wrong way round, and the
 grep -q "lights.json: not .parlight eval --json. output" "$T/err" || fail "non-eval JSON: $(cat "$T/err")"
 "$PY" "$L" "$T/norow.json" >/dev/null 2>"$T/err" && fail "rows without estimate lights were accepted"
 grep -q "has no 'estimate' or 'ground_truth' lights" "$T/err" || fail "no estimate: $(cat "$T/err")"
+"$PY" "$L" "$T/bad.json" >/dev/null 2>"$T/err" && fail "a light without a solid angle was accepted"
+grep -q "bad.json: a crop of p1.hdr: malformed lights (KeyError: 'solid_angle_sr')" "$T/err" ||
+    fail "malformed light: $(cat "$T/err")"
 "$PY" "$L" "$T/missing.json" >/dev/null 2>"$T/err" && fail "a missing file was accepted"
 grep -q "missing.json: No such file" "$T/err" || fail "missing file: $(cat "$T/err")"
-echo "ok  a non-eval JSON, rows without lights and a missing file refused, naming the problem"
+echo "ok  a non-eval JSON, rows without lights, a malformed light and a missing file refused, naming the problem"

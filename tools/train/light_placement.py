@@ -93,10 +93,18 @@ def load(path, row):
             if row not in c or "ground_truth" not in c:
                 sys.exit(f"light_placement.py: {path}: a crop of {p.get('file')} has no "
                          f"'{row}' or 'ground_truth' lights (eval before 2026-12-04?)")
-            gt = c["ground_truth"]["lights"]
-            if not gt or not c[row]["lights"]:
+            try:
+                gt, est = c["ground_truth"]["lights"], c[row]["lights"]
+                for light in gt + est:
+                    energy(light)
+                    if len(light["dir"]) != 3:
+                        raise ValueError("a direction without 3 components")
+            except (KeyError, TypeError, ValueError) as e:
+                sys.exit(f"light_placement.py: {path}: a crop of {p.get('file')}: malformed "
+                         f"lights ({type(e).__name__}: {e})")
+            if not gt or not est:
                 continue
-            crops.append((pi, gt[by_energy(gt)[0]]["dir"], c[row]["lights"]))
+            crops.append((pi, gt[by_energy(gt)[0]]["dir"], est))
     if len({pi for pi, _, _ in crops}) < 2:
         sys.exit(f"light_placement.py: {path}: needs crops with lights in at least 2 panoramas")
     return crops
