@@ -5,7 +5,7 @@
 # not 0), the same lights with the energies turned round (the closest light always last, the
 # primary 90 deg off, best of N still 0), one answer for every crop (fixed slots; the control
 # equals the answer), and refusals of a non-eval JSON, of rows without lights and of a light
-# without its solid angle, naming the problem. Standard library only: no build needed.
+# without its solid angle, naming the problem. No build needed.
 # Env: PL_TEST_TMP (tests/run.sh). Exit 0 pass, 1 fail.
 set -u
 cd "$(dirname "$0")/.."

@@ -28,7 +28,6 @@ Per file, over the crops whose ground truth has a light:
 Directions are compared in each crop's camera frame; eval's crops share the pitch (0 unless
 --pitch was given), so "up" is the same in every crop and the other-room control keeps what the
 answers know about up and down. --estimate names the row of lights (estimate, ridge_estimate).
-Standard library only.
 """
 import argparse
 import json
@@ -36,14 +35,13 @@ import math
 import random
 import sys
 
+from compare_evals import median
+from fit_ridge import luminance, sg_integral
+
 
 def energy(light):
-    """pl_light_energy: luminance x pl_sg_integral(solid angle)."""
-    s = light["solid_angle_sr"] / (4 * math.pi)
-    if not s > 0:
-        return 0.0
-    r, g, b = light["rgb"]
-    return (0.2126 * r + 0.7152 * g + 0.0722 * b) * 2 * math.pi * s * -math.expm1(-2 / s)
+    """pl_light_energy: luminance x pl_sg_integral(solid angle) (fit_ridge.py's, as its primary)."""
+    return luminance(light["rgb"]) * sg_integral(light["solid_angle_sr"])
 
 
 def angle(a, b):
@@ -53,14 +51,6 @@ def angle(a, b):
         return float("nan")
     c = sum(x * y for x, y in zip(a, b)) / (na * nb)
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
-
-
-def median(v):
-    v = sorted(x for x in v if math.isfinite(x))
-    n = len(v)
-    if n == 0:
-        return float("nan")
-    return 0.5 * (v[(n - 1) // 2] + v[n // 2])
 
 
 def by_energy(lights):
