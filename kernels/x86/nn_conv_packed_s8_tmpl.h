@@ -155,7 +155,10 @@ INLINE __m256i requant(const int left, __m256i acc, __m256i mult, __m256i lsh, _
  * Tiles: 0, 1 the accumulators (mr pixels x 16 channels of int32, one per block); 2 A (mr pixels
  * x 64 bytes of K), 3, 4 the blocks' weights (16 groups of 4 K x 16 channels: 1024 contiguous
  * bytes of the VNNI packing, [K/4][16][4], rows 64 bytes apart); 5, 6, 7 the same for the tail
- * of a tap when cs is not a multiple of 64. */
+ * of a tap when cs is not a multiple of 64. Without a tail, full 16-pixel tiles go in pairs
+ * (tile_pair): 5, 6 are the second pixel tile's accumulators and 7 its A, so each weight tile
+ * loaded serves two tdpbusd instead of one (the loads of the weight tiles were most of the
+ * kernel's time). */
 typedef struct amx_cfg {
     uint8_t palette, start_row, reserved[14];
     uint16_t colsb[16];
@@ -171,7 +174,12 @@ static void amx_config(amx_cfg *cfg, int mr, int tail)
         cfg->rows[t] = (uint8_t)(t == 3 || t == 4 ? 16 : mr);
         cfg->colsb[t] = 64;
     }
-    if (tail) {
+    if (!tail && mr == MR) { /* tile_pair's: 5, 6 accumulators, 7 A, all 16 x 64 bytes */
+        for (int t = 5; t < 8; t++) {
+            cfg->rows[t] = MR;
+            cfg->colsb[t] = 64;
+        }
+    } else if (tail) {
         cfg->rows[5] = (uint8_t)mr;
         cfg->colsb[5] = (uint16_t)tail;
         cfg->rows[6] = cfg->rows[7] = (uint8_t)(tail / 4);
@@ -301,6 +309,9 @@ INLINE void amx_accumulate(const int mr, const int nv, const pl_s8_conv *c, cons
 /* ---- one tile --------------------------------------------------------------------------------
  * mr pixels (A at a0 + m*astep) x nv vectors of channels starting at block `blk`; writes the
  * bytes of channels [cb, ce) (relative to the tile's first channel) of pixel m at out[m] + c0. */
+INLINE void requant_store(const int mr, const int nv, const pl_s8_conv *c, const int32_t *qv,
+                          int nbp, vec acc[MR][2], int8_t *const *out, int c0, int cb, int ce);
+
 INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t *a0, size_t astep,
                  const uint8_t *wblk, size_t wblock_bytes, const int32_t *qv, int nbp,
                  int8_t *const *out, int c0, int cb, int ce)
@@ -376,8 +387,14 @@ INLINE void tile(const int mr, const int nv, const pl_s8_conv *c, const uint8_t 
             }
         }
 #endif /* NN_T_AMX */
+    requant_store(mr, nv, c, qv, nbp, acc, out, c0, cb, ce);
+}
 
-    /* requantise and store */
+/* Requantises the tile's mr x nv vectors of int32 sums and stores the bytes of channels [cb, ce)
+ * of pixel m at out[m] + c0. */
+INLINE void requant_store(const int mr, const int nv, const pl_s8_conv *c, const int32_t *qv,
+                          int nbp, vec acc[MR][2], int8_t *const *out, int c0, int cb, int ce)
+{
 #if defined(NN_T_ZMM)
     const __m512i off = _mm512_set1_epi32(c->output_offset + (c->out_xor & 0x80 ? 128 : 0)),
                   lo = _mm512_set1_epi32(c->act_min - c->output_offset),
@@ -531,6 +548,78 @@ static void tile_any(int mr, int nv, const pl_s8_conv *c, const uint8_t *a0, siz
     }
 }
 
+#if defined(NN_T_AMX)
+/* Two full tiles of 16 pixels (A at a0 and a1) x 2 blocks, when cs is a multiple of 64: four
+ * accumulator tiles, each weight tile loaded once for both pixel tiles. The sums are the same
+ * int32 values as two calls of tile() (wrap-around addition in another order), so the bytes
+ * are too. The caller has loaded amx_config(.., MR, 0). */
+static void tile_pair(const pl_s8_conv *c, const uint8_t *a0, const uint8_t *a1, size_t astep,
+                      const uint8_t *wblk, size_t wblock_bytes, const int32_t *qv, int nbp,
+                      int8_t *const *out0, int8_t *const *out1, int c0, int cb, int ce)
+{
+    int32_t ct[4][16][16] __attribute__((aligned(64)));
+    const int nk = c->cs / 64;
+    const size_t tap = (size_t)c->cs;
+    const uint8_t *wg = wblk;
+    T_ZERO(0);
+    T_ZERO(1);
+    T_ZERO(5);
+    T_ZERO(6);
+    for (int ky = 0; ky < c->k_h; ky++)
+        for (int kx = 0; kx < c->k_w; kx++) {
+            const size_t off = ((size_t)ky * (size_t)c->dilation_h * (size_t)c->a_w +
+                                (size_t)kx * (size_t)c->dilation_w) * tap;
+            const uint8_t *ap = a0 + off, *bp = a1 + off;
+            for (int k = 0; k < nk; k++, ap += 64, bp += 64, wg += 16 * GROUP_BYTES) {
+                T_LOAD(2, ap, astep);
+                T_LOAD(7, bp, astep);
+                T_LOAD(3, wg, GROUP_BYTES);
+                T_DPBUSD(0, 2, 3);
+                T_DPBUSD(5, 7, 3);
+                T_LOAD(4, wg + wblock_bytes, GROUP_BYTES);
+                T_DPBUSD(1, 2, 4);
+                T_DPBUSD(6, 7, 4);
+            }
+        }
+    T_STORE(0, ct[0], 64);
+    T_STORE(1, ct[1], 64);
+    T_STORE(5, ct[2], 64);
+    T_STORE(6, ct[3], 64);
+    const __m512i b0 = _mm512_loadu_si512(qv), b1 = _mm512_loadu_si512(qv + 16);
+    for (int t = 0; t < 2; t++) {
+        __m512i acc[MR][2];
+#pragma GCC unroll 16
+        for (int m = 0; m < MR; m++) {
+            acc[m][0] = _mm512_add_epi32(_mm512_load_si512(ct[2 * t][m]), b0);
+            acc[m][1] = _mm512_add_epi32(_mm512_load_si512(ct[2 * t + 1][m]), b1);
+        }
+        requant_store(MR, 2, c, qv, nbp, acc, t ? out1 : out0, c0, cb, ce);
+    }
+}
+#endif
+
+/* The tile of pixels from p (at most MR, within one output row unless the convolution is
+ * dense, and before pix_end): its height, its A (*a0) and its output pixels (o). */
+static int locate(const pl_s8_conv *c, const uint8_t *a, int8_t *out, size_t ostride, int pitch,
+                  int dense, int p, int pix_end, const uint8_t **a0, int8_t **o)
+{
+    const int ox = p % c->out_w, row = p / c->out_w, oy = row % c->out_h, b = row / c->out_h;
+    int mr = pix_end - p;
+    if (!dense && mr > c->out_w - ox) mr = c->out_w - ox; /* a k x k tile stays in its row */
+    if (mr > MR) mr = MR;
+    *a0 = a + (((size_t)b * (size_t)c->a_h + (size_t)oy * (size_t)c->stride_h) * (size_t)c->a_w +
+               (size_t)ox * (size_t)c->stride_w) *
+                  (size_t)c->cs;
+    for (int m = 0, qx = ox, qrow = row; m < mr; m++) { /* pixel p + m, without dividing */
+        o[m] = out + ((size_t)qrow * (size_t)pitch + (size_t)qx) * ostride;
+        if (++qx == c->out_w) {
+            qx = 0;
+            qrow++;
+        }
+    }
+    return mr;
+}
+
 void NN_T_NAME(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_stride,
                int pix_begin, int pix_end, int oc_begin, int oc_end)
 {
@@ -548,29 +637,40 @@ void NN_T_NAME(const pl_s8_conv *c, const uint8_t *a, int8_t *out, int out_c_str
     int cfg_mr = -1; /* the tile height the loaded configuration is for */
 #endif
     for (int p = pix_begin; p < pix_end;) {
-        const int ox = p % c->out_w, row = p / c->out_w, oy = row % c->out_h, b = row / c->out_h;
-        int mr = pix_end - p;
-        if (!dense && mr > c->out_w - ox) mr = c->out_w - ox; /* a k x k tile stays in its row */
-        if (mr > MR) mr = MR;
+        const uint8_t *a0;
+        int8_t *o[MR]; /* the tile's output pixels (rows of the output may be apart: out_pitch) */
+        const int mr = locate(c, a, out, ostride, pitch, dense, p, pix_end, &a0, o);
 #if defined(NN_T_AMX)
         if (mr != cfg_mr) {
             amx_config(&cfg, mr, c->cs % 64);
             T_CONFIG(&cfg);
             cfg_mr = mr;
         }
-#endif
-        const uint8_t *a0 = a + (((size_t)b * (size_t)c->a_h + (size_t)oy * (size_t)c->stride_h) *
-                                     (size_t)c->a_w +
-                                 (size_t)ox * (size_t)c->stride_w) *
-                                    (size_t)c->cs;
-        int8_t *o[MR]; /* the tile's output pixels (rows of the output may be apart: out_pitch) */
-        for (int m = 0, qx = ox, qrow = row; m < mr; m++) { /* pixel p + m, without dividing */
-            o[m] = out + ((size_t)qrow * (size_t)pitch + (size_t)qx) * ostride;
-            if (++qx == c->out_w) {
-                qx = 0;
-                qrow++;
+        if (mr == MR && c->cs % 64 == 0 && p + MR < pix_end) {
+            const uint8_t *a1;
+            int8_t *o1[MR];
+            if (locate(c, a, out, ostride, pitch, dense, p + MR, pix_end, &a1, o1) == MR) {
+                for (int blk = blk_begin; blk < blk_end; blk += NBLK) {
+                    const int c0 = blk * PL_S8_OCB;
+                    const int cb = oc_begin > c0 ? oc_begin - c0 : 0;
+                    const uint8_t *wb = w + (size_t)blk * wblock_bytes;
+                    if (blk + 2 <= blk_end) {
+                        const int ce = oc_end - c0 < 2 * PL_S8_OCB ? oc_end - c0 : 2 * PL_S8_OCB;
+                        tile_pair(c, a0, a1, astep, wb, wblock_bytes, c->bias + c0, nbp, o, o1,
+                                  c0, cb, ce);
+                    } else {
+                        const int ce = oc_end - c0 < PL_S8_OCB ? oc_end - c0 : PL_S8_OCB;
+                        tile_any(MR, 1, c, a0, astep, wb, wblock_bytes, c->bias + c0, nbp, o, c0,
+                                 cb, ce);
+                        tile_any(MR, 1, c, a1, astep, wb, wblock_bytes, c->bias + c0, nbp, o1, c0,
+                                 cb, ce);
+                    }
+                }
+                p += 2 * MR;
+                continue;
             }
         }
+#endif
         for (int blk = blk_begin; blk < blk_end; blk += NBLK) {
             const int nblk = blk + NBLK <= blk_end ? NBLK : blk_end - blk;
 #if NBLK > 1
