@@ -600,7 +600,7 @@ static void tile_pair(const pl_s8_conv *c, const uint8_t *a0, const uint8_t *a1,
 
 /* The tile of pixels from p (at most MR, within one output row unless the convolution is
  * dense, and before pix_end): its height, its A (*a0) and its output pixels (o). */
-static int locate(const pl_s8_conv *c, const uint8_t *a, int8_t *out, size_t ostride, int pitch,
+INLINE int locate(const pl_s8_conv *c, const uint8_t *a, int8_t *out, size_t ostride, int pitch,
                   int dense, int p, int pix_end, const uint8_t **a0, int8_t **o)
 {
     const int ox = p % c->out_w, row = p / c->out_w, oy = row % c->out_h, b = row / c->out_h;
