@@ -56,28 +56,31 @@ def sha256(path):
     return h.hexdigest()
 
 
-class Ridge(fit_ridge.Ridge):
-    """fit_ridge.Ridge, solved through the n x n Gram matrix when there are fewer rows than
-    features (the same regression: W = Z^T (Z Z^T + lambda)^-1 Y): a small dataset's probe
-    then costs an n x n eigendecomposition instead of a 3072 x 3072 one."""
+class Ridge:
+    """fit_ridge.Ridge's regression (standardised features, centred targets, intercept
+    unpenalised; raw(lam) gives W, b on the raw features), solved per lambda instead of through
+    one eigendecomposition: with 3,072 features a linear solve per lambda is several times
+    cheaper than eigh. Fewer rows than features: through the n x n Gram matrix,
+    W = Z^T (Z Z^T + lambda)^-1 Y (the same regression)."""
 
     def __init__(self, X, Y):
-        if len(X) >= X.shape[1]:
-            super().__init__(X, Y)
-            self.dual = None
-            return
         self.mu = X.mean(0)
         sd = X.std(0)
         self.sd = np.where(sd > 1e-12, sd, 1.0)
         self.Z = (X - self.mu) / self.sd
         self.ym = Y.mean(0)
-        self.e, self.U = np.linalg.eigh(self.Z @ self.Z.T)
-        self.dual = self.U.T @ (Y - self.ym)
+        self.Yc = Y - self.ym
+        self.dual = len(X) < X.shape[1]
+        self.G = self.Z @ self.Z.T if self.dual else self.Z.T @ self.Z
+        self.ZtY = None if self.dual else self.Z.T @ self.Yc
 
     def raw(self, lam):
-        if self.dual is None:
-            return super().raw(lam)
-        W = self.Z.T @ (self.U @ (self.dual / (self.e + lam)[:, None])) / self.sd[:, None]
+        eye = lam * np.eye(len(self.G))
+        if self.dual:
+            W = self.Z.T @ np.linalg.solve(self.G + eye, self.Yc)
+        else:
+            W = np.linalg.solve(self.G + eye, self.ZtY)
+        W = W / self.sd[:, None]
         return W, self.ym - self.mu @ W
 
 
