@@ -21,8 +21,9 @@ answer (its training crops' mean direction), and on the scoring crops the probe'
 against the training mean direction and "straight up"; with --eval-json (`parlight eval --json`
 of the same model on the same panoramas and --crops) also the network's own primary light per
 crop, and the paired median difference probe - network. A probe that does no better than the
-network's heads on the scoring rooms says the heads lose nothing a linear readout of z could
-give there: the cue has to come from the encoder (MODEL_CARD.md, "What the encoder knows").
+network's heads on the scoring rooms says no linear readout of z does better there; one well
+ahead of them says the heads lose a cue z has. The probe bounds what z holds from below only:
+nonlinear heads can beat it (MODEL_CARD.md, "What the encoder knows").
 
 z is cached in --work (default DATASET/probe-<model sha256 prefix>/), keyed by the model's and the
 crop lists' sha256; rerunning reuses it. One BLAS thread: the same numbers each run.
