@@ -11,6 +11,7 @@ finiteness, CRC); tensor names and shapes of the architecture are checked by
 tools/export.py:expected_shapes. Run this file for a self-test.
 """
 
+import hashlib
 import os
 import re
 import struct
@@ -48,6 +49,16 @@ class PlmError(ValueError):
 
 
 CRC_OFFSET = 56
+
+
+def file_sha256(path):
+    """Hex sha256 of a file's bytes (what the tools key caches and provenance by), read in 1 MiB
+    blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def file_crc(buf):

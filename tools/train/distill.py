@@ -24,7 +24,6 @@ computed once on the CPU and cached; --device cpu is bit-identical to runs befor
 
 import argparse
 import datetime
-import hashlib
 import os
 import sys
 import time
@@ -37,6 +36,7 @@ from PIL import Image
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
+import plm  # noqa: E402
 import tflite_teacher  # noqa: E402
 import train  # noqa: E402
 from model import ParLightNet  # noqa: E402
@@ -46,14 +46,6 @@ from model import ParLightNet  # noqa: E402
 # are not compared); --epochs may grow, and the thread count is recorded, not compared
 RESUME_KEYS = ("input", "teacher_sha256", "seed", "bf16", "batch", "lr", "data_index_sha256",
                "held_out")
-
-
-def file_sha256(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def teacher_maps(teacher, data, idx_rows, grid):
@@ -110,7 +102,7 @@ def main(argv=None):
             raise ValueError(f"{args.data}: {len(tr)} training crops, fewer than one batch of "
                              f"{args.batch}")
         grid = (args.input[0] // 32, args.input[1] // 32)
-        tsha = file_sha256(args.teacher)
+        tsha = plm.file_sha256(args.teacher)
         cfg = {"input": list(args.input), "teacher": args.teacher, "teacher_sha256": tsha,
                "seed": args.seed, "epochs": args.epochs, "bf16": args.bf16, "batch": args.batch,
                "lr": args.lr, "threads": [max(1, args.threads)],   # the weights depend on it

@@ -44,17 +44,11 @@ import numpy as np  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))
 import fit_ridge  # noqa: E402
+import plm  # noqa: E402
 
 LAMBDAS = (0.01, 0.1, 1.0, 10.0)   # times the number of training rows
-
-
-def sha256(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for b in iter(lambda: f.read(1 << 20), b""):
-            h.update(b)
-    return h.hexdigest()
 
 
 class Ridge:
@@ -171,7 +165,7 @@ def main(argv=None):
         for exe in (args.parlight, args.zdump):
             if not os.access(exe, os.X_OK):
                 raise ValueError(f"{exe}: not built (make {os.path.relpath(exe, ROOT)})")
-        model_sha = sha256(args.model)
+        model_sha = plm.file_sha256(args.model)
         work = args.work or os.path.join(args.data, f"probe-{model_sha[:12]}")
         os.makedirs(work, exist_ok=True)
 

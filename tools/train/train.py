@@ -64,9 +64,9 @@ vector h (AuxMap, training only, never exported: the .plm and the C graph do not
 the map after log1p, L2 weighted by each row's solid angle. --sphere-truth map lights the
 diffuse-sphere terms' truth (--w-d1, --step2-loss render) by that real panorama instead of the
 extracted lights + ambient: what `parlight eval` scores against, light the extraction left out
-included. (Measured, not shipped: MODEL_CARD.md, "Dense supervision" in 3-epoch runs, and "The
-map head at full length": --w-map 1 against its control, paired on eval/, -4.0 deg of angle and
-+0.034 si-RMSE log ratio, short of its rule.)
+included. --w-map 1 is in the shipped recipe since 2026-12-06 (MODEL_CARD.md, "The map head, a
+second pair": against its control, paired on eval/, -4.0 and -7.7 deg of primary-light angle in
+two seeds, shape level); --sphere-truth map has not passed its rule.
 Direction first (not in the paper; off by default): --w-primary W adds W times primary_loss in
 step 1, the angular error of the primary light (the one pl_lighting_primary reports and an AR app
 casts shadows from), which neither the map's nor the sphere's L2 measures. tools/train/heads.py
