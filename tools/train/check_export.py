@@ -37,7 +37,7 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=1e-3)
     args = ap.parse_args(argv)
     try:
-        ck = torch.load(args.ckpt, map_location="cpu")
+        ck = torch.load(args.ckpt, map_location="cpu", weights_only=False)
         cfg = ck["config"]
         model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
         # train.py --w-map's auxiliary head is training only: never exported
