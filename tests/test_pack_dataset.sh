@@ -1,0 +1,103 @@
+#!/usr/bin/env bash
+# tools/train/pack_dataset.py (docs/TRAINING.md, "Training on a remote GPU"): a small dataset
+# made here (4 crops with lights, ambient and 32x16 radiance maps up to 2e4) packs into crops.zip,
+# gt.json.xz, maps.npy.xz, index.tsv and encoder.pt.xz; unpacked, every ground truth is the
+# original but for the maps (log1p within float16's rounding), every crop within WebP's loss of
+# its PNG, the encoder its float16 rounding; train.py loads the unpacked folder and runs a step;
+# a non-empty --out, a pack with a crop missing from its zip, a corrupt zip and --init-out
+# without an encoder are refused by name. Needs no ../shared.
+set -u
+cd "$(dirname "$0")/.."
+PY=/usr/bin/python3
+T=${PL_TEST_TMP:-$(mktemp -d)}/pack_dataset
+"$PY" -c 'import torch, numpy, PIL' 2>/dev/null || { echo "skip: $PY lacks torch/numpy/PIL"; exit 77; }
+rm -rf "$T"
+mkdir -p "$T"
+EXPECT_TIMEOUT=300
+. "$(dirname "$0")/cli_helpers.sh"
+
+"$PY" - "$T/data" "$T/enc.pt" <<'PY' || { echo "FAIL: could not make the test dataset"; exit 1; }
+import json, os, sys
+import numpy as np, torch
+from PIL import Image
+out, enc = sys.argv[1:]
+os.makedirs(out + "/crops")
+rng = np.random.default_rng(7)
+rows = []
+for i, (pano, scene) in enumerate([("train/a.exr", "indoor")] * 2 + [("train/b.exr", "outdoor")] * 2):
+    img = (rng.random((96, 128, 3)) * 8 + np.linspace(0, 180, 128)[None, :, None]
+           + np.linspace(0, 60, 96)[:, None, None] * (i + 1) / 4).astype(np.uint8)
+    Image.fromarray(img).save(f"{out}/crops/c{i}.png")
+    m = rng.random((16, 32, 3)) ** 6 * 2e4
+    lights = [{"dir": list(map(float, v / np.linalg.norm(v))), "distance_m": 2.5,
+               "solid_angle_sr": 0.3 + k, "rgb": [5.0 + k, 4.0, 3.0]}
+              for k, v in enumerate(rng.normal(size=(3, 3)))]
+    obj = {"lights": lights, "ambient": [0.1, 0.2, 0.3], "image": f"c{i}.png",
+           "radiance_map": {"width": 32, "height": 16, "frame": "crop camera",
+                            "rgb": [float(f"{v:.9g}") for v in m.reshape(-1)]}}
+    with open(f"{out}/crops/c{i}.json", "w") as f:
+        json.dump(obj, f)
+    rows.append(f"crops/c{i}.png\tcrops/c{i}.json\t{pano}\t{scene}\n")
+with open(out + "/index.tsv", "w") as f:
+    f.write("png\tjson\tpanorama\tscene\n" + "".join(rows))
+torch.save({"model": {"features.conv0.weight": torch.randn(8, 3, 3, 3),
+                      "features.norm0.num_batches_tracked": torch.tensor(5),
+                      "head.weight": torch.randn(2, 2)}}, enc)
+PY
+
+PACK=("$PY" tools/train/pack_dataset.py)
+expect 0 "packed 4 crops" -- "${PACK[@]}" pack --data "$T/data" --out "$T/pack" --init "$T/enc.pt"
+for f in crops.zip gt.json.xz maps.npy.xz index.tsv encoder.pt.xz; do
+    [ -f "$T/pack/$f" ] || fail "pack: no $f"
+done
+[ "$(ls "$T/pack" | wc -l)" -eq 5 ] || fail "pack: expected 5 files, got $(ls "$T/pack" | tr '\n' ' ')"
+expect 1 "exists and is not empty" -- "${PACK[@]}" pack --data "$T/data" --out "$T/pack"
+expect 1 "quality 0" -- "${PACK[@]}" pack --data "$T/data" --out "$T/p0" --quality 0
+expect 0 "unpacked 4 crops" -- "${PACK[@]}" unpack "$T/pack" --out "$T/un" --init-out "$T/enc2.pt"
+expect 1 "exists and is not empty" -- "${PACK[@]}" unpack "$T/pack" --out "$T/un"
+
+"$PY" - "$T/data" "$T/un" "$T/enc.pt" "$T/enc2.pt" <<'PY' && ok "unpacked = original within WebP, float16" || fail "unpacked dataset differs"
+import json, sys
+import numpy as np, torch
+from PIL import Image
+src, dst, e1, e2 = sys.argv[1:]
+rows = [l.rstrip("\n").split("\t") for l in open(dst + "/index.tsv")][1:]
+orig = [l.rstrip("\n").split("\t") for l in open(src + "/index.tsv")][1:]
+assert [r[2:] for r in rows] == [r[2:] for r in orig] and len(rows) == 4
+for (img, js, _, _), (png, ojs, _, _) in zip(rows, orig):
+    assert img.endswith(".webp"), img
+    a = np.asarray(Image.open(f"{dst}/{img}").convert("RGB"), np.float64)
+    b = np.asarray(Image.open(f"{src}/{png}").convert("RGB"), np.float64)
+    assert a.shape == b.shape and np.abs(a - b).mean() < 4, (img, np.abs(a - b).mean())
+    u, o = json.load(open(f"{dst}/{js}")), json.load(open(f"{src}/{ojs}"))
+    mu, mo = (np.array(x["radiance_map"].pop("rgb")) for x in (u, o))
+    assert u == o, js
+    lu, lo = np.log1p(mu), np.log1p(mo)
+    assert np.all(np.abs(lu - lo) <= np.abs(lo) * 2.0 ** -11 + 1e-7), np.abs(lu - lo).max()
+    assert mo.max() > 1e3
+a, b = torch.load(e1)["model"], torch.load(e2)["model"]
+assert set(b) == {"features.conv0.weight", "features.norm0.num_batches_tracked"}, set(b)
+w = b["features.conv0.weight"]
+assert w.dtype == torch.float32 and torch.equal(w, a["features.conv0.weight"].half().float())
+assert torch.equal(b["features.norm0.num_batches_tracked"], torch.tensor(5))
+PY
+
+expect 0 "" -- "$PY" tools/train/train.py --data "$T/un" --input 96x128 \
+    --batch 2 --step1-epochs 1 --step2-epochs 0 --w-map 1 --threads 1 --max-steps 1 --val-panos 0 \
+    --ckpt-dir "$T/run" --log "$T/run.log"
+grep -q "stopped at --max-steps 1" "$T/run.log" || fail "train.py on the unpacked set: $(tail -n 2 "$T/run.log")"
+
+# a crop missing from the zip, a corrupt zip, --init-out without an encoder
+cp -r "$T/pack" "$T/bad1"
+"$PY" -c 'import zipfile, sys
+z = zipfile.ZipFile(sys.argv[1] + "/crops.zip"); keep = [(n, z.read(n)) for n in z.namelist()[1:]]; z.close()
+w = zipfile.ZipFile(sys.argv[1] + "/crops.zip", "w"); [w.writestr(n, d) for n, d in keep]; w.close()' "$T/bad1"
+expect 1 "crops.zip: no crops/c0.webp" -- "${PACK[@]}" unpack "$T/bad1" --out "$T/u1"
+cp -r "$T/pack" "$T/bad2"
+head -c 1000 "$T/pack/crops.zip" >"$T/bad2/crops.zip"
+expect 1 "bad2/crops.zip: " -- "${PACK[@]}" unpack "$T/bad2" --out "$T/u2"
+cp -r "$T/pack" "$T/bad3"
+rm "$T/bad3/encoder.pt.xz"
+expect 1 "holds no encoder.pt.xz" -- "${PACK[@]}" unpack "$T/bad3" --out "$T/u3" --init-out "$T/e3.pt"
+expect 1 "not a make_dataset.py folder" -- "${PACK[@]}" pack --data "$T/pack/crops.zip" --out "$T/p4"
+finish
