@@ -5,7 +5,10 @@
 # original but for the maps (log1p within float16's rounding), every crop within WebP's loss of
 # its PNG, the encoder its float16 rounding; train.py loads the unpacked folder and runs a step;
 # a non-empty --out, a pack with a crop missing from its zip, a corrupt zip and --init-out
-# without an encoder are refused by name. Needs no ../shared.
+# without an encoder are refused by name. pack-net / unpack-net bring the run's network back as
+# float16 parts (the map head left out) that export; a missing part and an existing output are
+# refused. tools/train/remote_run.sh runs the recipe from a pack (on the CPU here: two seeds, one
+# epoch each) into parts that export, and stops at its budget. Needs no ../shared.
 set -u
 cd "$(dirname "$0")/.."
 PY=/usr/bin/python3
@@ -16,34 +19,7 @@ mkdir -p "$T"
 EXPECT_TIMEOUT=300
 . "$(dirname "$0")/cli_helpers.sh"
 
-"$PY" - "$T/data" "$T/enc.pt" <<'PY' || { echo "FAIL: could not make the test dataset"; exit 1; }
-import json, os, sys
-import numpy as np, torch
-from PIL import Image
-out, enc = sys.argv[1:]
-os.makedirs(out + "/crops")
-rng = np.random.default_rng(7)
-rows = []
-for i, (pano, scene) in enumerate([("train/a.exr", "indoor")] * 2 + [("train/b.exr", "outdoor")] * 2):
-    img = (rng.random((96, 128, 3)) * 8 + np.linspace(0, 180, 128)[None, :, None]
-           + np.linspace(0, 60, 96)[:, None, None] * (i + 1) / 4).astype(np.uint8)
-    Image.fromarray(img).save(f"{out}/crops/c{i}.png")
-    m = rng.random((16, 32, 3)) ** 6 * 2e4
-    lights = [{"dir": list(map(float, v / np.linalg.norm(v))), "distance_m": 2.5,
-               "solid_angle_sr": 0.3 + k, "rgb": [5.0 + k, 4.0, 3.0]}
-              for k, v in enumerate(rng.normal(size=(3, 3)))]
-    obj = {"lights": lights, "ambient": [0.1, 0.2, 0.3], "image": f"c{i}.png",
-           "radiance_map": {"width": 32, "height": 16, "frame": "crop camera",
-                            "rgb": [float(f"{v:.9g}") for v in m.reshape(-1)]}}
-    with open(f"{out}/crops/c{i}.json", "w") as f:
-        json.dump(obj, f)
-    rows.append(f"crops/c{i}.png\tcrops/c{i}.json\t{pano}\t{scene}\n")
-with open(out + "/index.tsv", "w") as f:
-    f.write("png\tjson\tpanorama\tscene\n" + "".join(rows))
-torch.save({"model": {"features.conv0.weight": torch.randn(8, 3, 3, 3),
-                      "features.norm0.num_batches_tracked": torch.tensor(5),
-                      "head.weight": torch.randn(2, 2)}}, enc)
-PY
+"$PY" tests/tiny_dataset.py "$T/data" "$T/enc.pt" || { echo "FAIL: could not make the test dataset"; exit 1; }
 
 PACK=("$PY" tools/train/pack_dataset.py)
 expect 0 "packed 4 crops" -- "${PACK[@]}" pack --data "$T/data" --out "$T/pack" --init "$T/enc.pt"
@@ -100,4 +76,39 @@ cp -r "$T/pack" "$T/bad3"
 rm "$T/bad3/encoder.pt.xz"
 expect 1 "holds no encoder.pt.xz" -- "${PACK[@]}" unpack "$T/bad3" --out "$T/u3" --init-out "$T/e3.pt"
 expect 1 "not a make_dataset.py folder" -- "${PACK[@]}" pack --data "$T/pack/crops.zip" --out "$T/p4"
+# a network there and back: pack-net / unpack-net of the run's checkpoint, then export
+expect 0 "2 parts" -- "${PACK[@]}" pack-net "$T/run/last.pt" "$T/net"
+expect 0 "joined 2 parts" -- "${PACK[@]}" unpack-net "$T/net" "$T/net.pt"
+"$PY" - "$T/run/last.pt" "$T/net.pt" <<'PY' && ok "unpack-net = the network in float16" || fail "unpack-net differs"
+import sys
+import torch
+a, b = (torch.load(p, weights_only=False) for p in sys.argv[1:])
+assert any(k.startswith("aux_map.") for k in a["model"]), "the run had no map head"
+want = {k: v for k, v in a["model"].items() if not k.startswith("aux_map.")}
+assert set(b["model"]) == set(want) and b["config"] == a["config"]
+for k, v in want.items():
+    w = v.half().float() if v.is_floating_point() and v.numel() >= 4096 else v
+    assert b["model"][k].dtype == v.dtype and torch.equal(b["model"][k], w), k
+PY
+expect 0 "" -- "$PY" tools/train/train.py --export-only "$T/net.pt" "$T/net.plm"
+expect 1 "exists; not replacing it" -- "${PACK[@]}" unpack-net "$T/net" "$T/net.pt"
+mv "$T/net.part1" "$T/net1.bak"
+expect 1 "not a pack-net network" -- "${PACK[@]}" unpack-net "$T/net" "$T/net2.pt"
+expect 1 "nope.part0: no such file" -- "${PACK[@]}" unpack-net "$T/nope" "$T/net3.pt"
+# tools/train/remote_run.sh on the CPU: a pack without an encoder (from scratch), two seeds side
+# by side, one epoch of each step; the networks come back as parts that unpack and export. Then
+# a budget too short: the runs are stopped, the log says so, no parts.
+expect 0 "packed 4 crops" -- "${PACK[@]}" pack --data "$T/data" --out "$T/pack2"
+R=(env DEVICE=cpu INPUT=96x128 P="$PY" WORK="$T/rw" EXTRA="--step1-epochs 1 --step2-epochs 1 --batch 2 --threads 1"
+   tools/train/remote_run.sh "$T/pack2")
+expect 0 "" -- "${R[@]}" "$T/rout" 1 2
+for s in 1 2; do
+    grep -q "seed $s ended with status 0" "$T/rout/logs.txt" || fail "remote_run: seed $s did not finish"
+done
+expect 0 "joined 2 parts" -- "${PACK[@]}" unpack-net "$T/rout/g2" "$T/r2.pt"
+expect 0 "" -- "$PY" tools/train/train.py --export-only "$T/r2.pt" "$T/r2.plm"
+rm -rf "$T/rw"
+expect 0 "" -- env BUDGET=3 "${R[@]}" "$T/rout3" 1
+grep -q "budget reached" "$T/rout3/logs.txt" || fail "remote_run: no budget line"
+ls "$T/rout3"/g1.part* >/dev/null 2>&1 && fail "remote_run: parts of a stopped run"
 finish

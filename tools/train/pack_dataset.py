@@ -3,6 +3,8 @@
 
     pack_dataset.py pack   --data DIR --out PACK [--quality 90] [--init ENCODER.pt]
     pack_dataset.py unpack PACK --out DIR [--init-out ENCODER.pt]
+    pack_dataset.py pack-net CKPT STEM          # STEM.part0, STEM.part1, ... (<= 15 MiB each)
+    pack_dataset.py unpack-net STEM OUT.pt      # a train.py checkpoint again (float32)
 
 A machine lent for training may take only tens of MiB (docs/TRAINING.md, "Training on a remote
 GPU"): 4,800 crops of 256 x 192 as PNG are 390 MB with their ground truth, most of it the PNGs
@@ -20,7 +22,10 @@ and the 32 x 16 maps written as JSON text. The pack holds
   reads them).
 
 unpack writes a folder train.py reads like the original: index.tsv, crops/*.webp, one JSON per
-crop. The network trained on it is not the one the PNGs give: the pixels carry WebP's loss and
+crop. pack-net brings a trained network back the same way: a train.py checkpoint's network (no
+optimizer, no training-only head) with its tensors of 4096 values or more as float16, split
+into parts of at most 15 MiB (17.4 MB in two parts for the 96x128 or 192x256 network);
+unpack-net joins them into a checkpoint train.py --export-only exports. The network trained on it is not the one the PNGs give: the pixels carry WebP's loss and
 the maps float16's rounding (MODEL_CARD.md says which shipped network was trained so).
 """
 
@@ -144,6 +149,48 @@ def unpack(src, out, init_out):
     return len(rows)
 
 
+PART = 15 << 20
+
+
+def pack_net(ckpt, stem):
+    import torch
+    ck = torch.load(ckpt, map_location="cpu", weights_only=False)
+    if not isinstance(ck, dict) or not isinstance(ck.get("model"), dict) or "config" not in ck:
+        raise ValueError(f"{ckpt}: not a train.py checkpoint (no model/config)")
+    sd = {k: (v.half() if v.is_floating_point() and v.numel() >= 4096 else v)
+          for k, v in ck["model"].items() if not k.startswith("aux_map.")}
+    buf = io.BytesIO()
+    torch.save({"model": sd, "config": ck["config"], "state": ck.get("state", {}),
+                "packed_from": os.path.basename(ckpt)}, buf)
+    b = buf.getvalue()
+    for i in range(0, len(b), PART):
+        with open(f"{stem}.part{i // PART}", "wb") as f:
+            f.write(b[i:i + PART])
+    return (len(b) + PART - 1) // PART
+
+
+def unpack_net(stem, out):
+    import torch
+    if os.path.lexists(out):
+        raise ValueError(f"{out} exists; not replacing it")
+    parts, i = [], 0
+    while os.path.isfile(f"{stem}.part{i}"):
+        parts.append(f"{stem}.part{i}")
+        i += 1
+    if not parts:
+        raise ValueError(f"{stem}.part0: no such file")
+    b = b"".join(open(p, "rb").read() for p in parts)
+    try:
+        ck = torch.load(io.BytesIO(b), map_location="cpu", weights_only=False)
+    except Exception as e:  # a missing or damaged part: pickle / zip errors of many types
+        raise ValueError(f"{stem}.part0..{len(parts) - 1}: not a pack-net network "
+                         f"({type(e).__name__}: {e})") from None
+    ck["model"] = {k: (v.float() if v.dtype == torch.float16 else v)
+                   for k, v in ck["model"].items()}
+    torch.save(ck, out)
+    return len(parts)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -156,8 +203,20 @@ def main(argv=None):
     u.add_argument("pack")
     u.add_argument("--out", required=True, help="a new folder for the dataset")
     u.add_argument("--init-out", help="write the pack's encoder here as float32")
+    pn = sub.add_parser("pack-net")
+    pn.add_argument("ckpt", help="a train.py checkpoint (final.pt)")
+    pn.add_argument("stem", help="the parts are written as STEM.part0, STEM.part1, ...")
+    un = sub.add_parser("unpack-net")
+    un.add_argument("stem")
+    un.add_argument("out", help="the checkpoint to write (float32; not replaced)")
     args = ap.parse_args(argv)
     try:
+        if args.cmd == "pack-net":
+            print(f"pack_dataset: {pack_net(args.ckpt, args.stem)} parts", file=sys.stderr)
+            return 0
+        if args.cmd == "unpack-net":
+            print(f"pack_dataset: joined {unpack_net(args.stem, args.out)} parts", file=sys.stderr)
+            return 0
         if args.cmd == "pack":
             if not 1 <= args.quality <= 100:
                 raise ValueError(f"--quality {args.quality}: expected 1..100")

@@ -90,10 +90,15 @@ thread count gives another network (reduction order), as another distilled encod
 Data and devices: the crops' pixels are decoded once at load and held in memory (M x H x W x 3
 bytes), or with --stream decoded from their files at each use by a pool of threads (memory
 independent of the dataset's size); both give the same bytes, hence the same network. --device
-cuda (or cuda:N) trains on a GPU: the network, ground truth, maps and operators move there, images
-are decoded on the CPU and copied per batch, bf16 autocast runs on that device; batch order,
-flips and seeds are drawn on the CPU as before. --device cpu (the default) is bit-identical to the
-runs before the option existed. A run may be resumed on another device (the devices used are
+cuda (or cuda:N) trains on a GPU: the network, ground truth, maps and operators move there, the
+decoded crops too when they fit in a quarter of its memory (else they are copied per batch), bf16
+autocast runs on that device, and step 1 reads its loss back only at checkpoints and epoch ends
+(a non-finite loss then stops the run before anything is saved); batch order, flips and seeds are
+drawn on the CPU as before. --channels-last runs the network in that memory layout (cuDNN's own
+for bf16 convolutions; the checkpoints hold the default layout). --device cpu (the default) is
+bit-identical to the runs before the options existed. The first GPU run (model card, "The paper's
+input on a GPU", 2026-12-06, H100) had none of these three and trained at 160-225 img/s at
+192x256 beside a second run; what they gain there has not been measured. A run may be resumed on another device (the devices used are
 recorded, like the thread counts): it continues, but is not bit-identical to an uninterrupted one.
 
 The log (--log) gets one line per epoch: date, step, epoch, lr, train and validation losses,
@@ -196,6 +201,15 @@ class CropImages:
 
     def __len__(self):
         return len(self.paths)
+
+    def to_device(self, dev, budget):
+        """Moves the decoded crops to dev when they take at most `budget` bytes (a GPU then
+        indexes and mirrors each batch itself: no host copy, no host sync per batch); returns
+        whether they moved."""
+        if self.arr is None or self.arr.numel() > budget:
+            return False
+        self.arr = self.arr.to(dev)
+        return True
 
     def __getitem__(self, idx):
         if self.arr is not None:
@@ -318,8 +332,19 @@ def make_model(cfg):
     return model
 
 
+def to_layout(model, cfg):
+    """model in the channels-last memory layout with --channels-last (else unchanged)."""
+    return model.to(memory_format=torch.channels_last) if cfg.get("channels_last") else model
+
+
 def device_of(cfg):
     return torch.device(cfg.get("device", "cpu"))
+
+
+def net_input(u8, cfg):
+    """to_input of u8 on the run's device, in channels-last layout with --channels-last."""
+    x = to_input(u8.to(device_of(cfg)))
+    return x.contiguous(memory_format=torch.channels_last) if cfg.get("channels_last") else x
 
 
 def run_net(model, u8, cfg):
@@ -327,7 +352,7 @@ def run_net(model, u8, cfg):
     model has the auxiliary head (under the same autocast as the network)."""
     dev = device_of(cfg)
     with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=cfg["bf16"]):
-        out = model(to_input(u8.to(dev)))
+        out = model(net_input(u8, cfg))
         if hasattr(model, "aux_map"):
             out["aux_map"] = model.aux_map(out["h"])
     return out
@@ -366,7 +391,7 @@ def to_input(u8):
 def flip_batch(u8, gt, flip):
     """Mirror the images with flip[b] set and negate their lights' x (the crop camera is
     symmetric and the room-box distances are symmetric in x, so the ground truth stays exact)."""
-    return torch.where(flip.view(-1, 1, 1, 1), u8.flip(2), u8), flip_gt(gt, flip)
+    return torch.where(flip.to(u8.device).view(-1, 1, 1, 1), u8.flip(2), u8), flip_gt(gt, flip)
 
 
 def flip_gt(gt, flip):
@@ -424,12 +449,14 @@ def gt_map(gt, udirs, cfg):
                      prefilter_sigma=sg.pixel_sigma(cfg["map_width"]))
 
 
-def step1_loss(out, gt, udirs, cfg, render=None, gm=None):
+def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
     w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
     head's loss when --w-map > 0, plus w_primary * primary_loss when --w-primary > 0.
     render = (udirs, op, op of the crops' radiance maps or None, their rows' solid-angle weights
-    or None); gm: gt_map(gt, udirs, cfg) when the caller has it already."""
+    or None); gm: gt_map(gt, udirs, cfg) when the caller has it already. parts: the terms as
+    floats, or with sync=False as detached tensors (reading a float waits for a GPU)."""
+    num = float if sync else torch.Tensor.detach
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
                    prefilter_sigma=pf)
@@ -439,19 +466,19 @@ def step1_loss(out, gt, udirs, cfg, render=None, gm=None):
     la = F.mse_loss(radiance_tf(out["ambient"].float(), cfg["radiance"]),
                     radiance_tf(gt["ambient"], cfg["radiance"]))
     total = cfg["w_r"] * lr + cfg["w_a"] * la
-    parts = {"map": float(lr), "amb": float(la)}
+    parts = {"map": num(lr), "amb": num(la)}
     if cfg.get("w_d1", 0.0) > 0:
         ls = sphere_l2(pm, out["ambient"].float(), gm, gt, render, cfg)
         total = total + cfg["w_d1"] * ls
-        parts["sphere"] = float(ls)
+        parts["sphere"] = num(ls)
     if cfg.get("w_map", 0.0) > 0:
         lm = (((out["aux_map"].float() - torch.log1p(gt["map"])) ** 2) * render[3]).mean()
         total = total + cfg["w_map"] * lm
-        parts["aux"] = float(lm)
+        parts["aux"] = num(lm)
     if cfg.get("w_primary", 0.0) > 0:
         lp = primary_loss(out, gt)
         total = total + cfg["w_primary"] * lp
-        parts["primary"] = float(lp)
+        parts["primary"] = num(lp)
     return total, parts
 
 
@@ -563,7 +590,10 @@ def step2_loss(out, gt, cfg, render=None):
 # ---- checkpoints ------------------------------------------------------------------------------
 
 def save_ckpt(path, model, opt, state, cfg, ema=None):
-    obj = {"model": model.state_dict(), "optimizer": opt.state_dict() if opt else None,
+    # the network's tensors in the default layout whatever --channels-last trained them in
+    # (contiguous() returns a tensor already in it unchanged)
+    obj = {"model": {k: v.contiguous() for k, v in model.state_dict().items()},
+           "optimizer": opt.state_dict() if opt else None,
            "state": state, "config": cfg, "ema": ema.state_dict() if ema is not None else None,
            "rng": {"torch": torch.get_rng_state(), "numpy": np.random.get_state(),
                    "python": random.getstate()}}
@@ -691,8 +721,30 @@ def ema_update(pairs, step, decay):
                 v.copy_(m)
 
 
+def lazy_sums(cfg):
+    """Whether step 1 keeps its loss sums on the device and checks the loss for finiteness only
+    at the next checkpoint or epoch end (on a GPU: no host sync per batch). The CPU checks each
+    batch, as it always has; the weights are the same either way."""
+    return device_of(cfg).type != "cpu"
+
+
+def flush_sums(sums, pend, ep, b):
+    """Adds the device-side sums of the batches since the last flush (train_step1's `pend`) to
+    `sums`; refuses (RuntimeError, nothing saved) when a loss among them was not finite."""
+    if not pend:
+        return
+    if not bool(pend["ok"]):
+        raise RuntimeError(f"step 1 epoch {ep} batches {pend['from']}-{b}: a loss was not finite")
+    for key, v in pend.items():
+        if key not in ("ok", "from", "n"):
+            sums[key] = sums.get(key, 0.0) + float(v)
+    sums["n"] += pend["n"]
+    pend.clear()
+
+
 def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=None, ema=None):
     n_batches = len(tr) // cfg["batch"]
+    lazy = lazy_sums(cfg)
     if n_batches == 0:
         raise ValueError(f"{len(tr)} training crops: fewer than one batch of {cfg['batch']}")
     last_save = time.time()
@@ -710,6 +762,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
         model.z_dropout = cfg.get("z_dropout", 0.0)
         t0, seen, resumed_at = time.time(), 0, state["batch"]
         sums = state.setdefault("sums", {"loss": 0.0, "map": 0.0, "amb": 0.0, "n": 0})
+        pend = {}       # lazy: the batches' terms since the last flush_sums, on the device
         for b in range(state["batch"], n_batches):
             j = perm[b * cfg["batch"]:(b + 1) * cfg["batch"]]
             sl = slice(b * cfg["batch"], (b + 1) * cfg["batch"])
@@ -719,35 +772,46 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
             if model.z_dropout > 0:
                 torch.manual_seed((cfg["seed"] * 100003 + ep) * 100003 + b)
             out = run_net(model, u8, cfg)
-            loss, parts = step1_loss(out, g, udirs, cfg, render)
-            if not torch.isfinite(loss):
+            loss, parts = step1_loss(out, g, udirs, cfg, render, sync=not lazy)
+            if not lazy and not torch.isfinite(loss):
                 raise RuntimeError(f"step 1 epoch {ep} batch {b}: loss is {float(loss)}")
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
             if ema is not None:
                 ema_update(pairs, state.get("steps", 0), cfg["ema"])
-            sums["loss"] += float(loss)
-            sums["map"] += parts["map"]
-            sums["amb"] += parts["amb"]
-            for key in ("sphere", "aux", "primary"):
-                if key in parts:
-                    sums[key] = sums.get(key, 0.0) + parts[key]
-            sums["n"] += 1
+            if lazy:
+                ok = torch.isfinite(loss.detach())
+                pend["ok"] = pend["ok"] & ok if "ok" in pend else ok
+                pend.setdefault("from", b)
+                for key, v in [("loss", loss.detach())] + list(parts.items()):
+                    pend[key] = pend[key] + v.double() if key in pend else v.double()
+                pend["n"] = pend.get("n", 0) + 1
+            else:
+                sums["loss"] += float(loss)
+                sums["map"] += parts["map"]
+                sums["amb"] += parts["amb"]
+                for key in ("sphere", "aux", "primary"):
+                    if key in parts:
+                        sums[key] = sums.get(key, 0.0) + parts[key]
+                sums["n"] += 1
             seen += len(j)
             state["batch"] = b + 1
             state["steps"] = state.get("steps", 0) + 1
             if cfg["max_steps"] and state["steps"] >= cfg["max_steps"]:
+                flush_sums(sums, pend, ep, b)
                 save_ckpt(paths["last"], model, opt, state, cfg, ema)
                 log_line(paths["log"], f"step1 epoch {ep} batch {b + 1}/{n_batches}: stopped at "
                          f"--max-steps {cfg['max_steps']}, loss {float(loss):.6g}")
                 return False
             if time.time() - last_save > 60 * cfg["ckpt_minutes"]:
+                flush_sums(sums, pend, ep, b)
                 save_ckpt(paths["last"], model, opt, state, cfg, ema)
                 last_save = time.time()
                 log_line(paths["log"], f"step1 epoch {ep + 1} batch {b + 1}/{n_batches}: "
                          f"checkpoint; mean loss so far {sums['loss'] / sums['n']:.6g}, "
                          f"{seen / max(time.time() - t0, 1e-9):.2f} img/s")
+        flush_sums(sums, pend, ep, n_batches - 1)
         dt = time.time() - t0
         n = max(sums["n"], 1)
         vl = evaluate(model, imgs, gt, va, udirs, cfg, 1, render=render)
@@ -789,7 +853,7 @@ def step2_features(model, imgs, idx, cfg, bs=32):
             for f in (0, 1):
                 u8 = (imgs[j].flip(2) if f else imgs[j]).to(device_of(cfg))
                 with torch.autocast(u8.device.type, dtype=torch.bfloat16, enabled=cfg["bf16"]):
-                    z = model.latent(to_input(u8))
+                    z = model.latent(net_input(u8, cfg))
                 z = z.float()
                 h = F.relu(model.fc(z))
                 d = F.normalize(model.head_dir(h).view(-1, model.n_lights, 3), dim=-1)
@@ -914,6 +978,9 @@ def main(argv=None):
     ap.add_argument("--bf16", action="store_true", help="bf16 autocast for the network")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
+    ap.add_argument("--channels-last", action="store_true", help="run the network in the "
+                    "channels-last memory layout (cuDNN's own for bf16 convolutions on a GPU; "
+                    "the weights differ from the default layout's by rounding)")
     ap.add_argument("--stream", action="store_true", help="decode the crops from their files at "
                     "each use instead of holding them all in memory (same results)")
     ap.add_argument("--ckpt-minutes", type=float, default=5.0)
@@ -997,6 +1064,7 @@ def main(argv=None):
                "gt_map_width": int(gt["map"].shape[2]) if need_map else 0,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "threads": [max(1, args.threads)], "device": args.device,
+               "channels_last": bool(args.channels_last),
                "devices": [args.device],
                "limit": args.limit, "torch": torch.__version__,
                "init": os.path.abspath(args.init) if args.init else None,
@@ -1009,8 +1077,11 @@ def main(argv=None):
                   map_weights(cfg["gt_map_width"] // 2, cfg["gt_map_width"]).to(dev)
                   if need_map else None)
 
+        if dev.type == "cuda" and imgs.to_device(
+                dev, torch.cuda.get_device_properties(dev).total_memory // 4):
+            log_line(args.log, f"the crops on {dev} ({imgs.arr.numel() / 2**20:.0f} MiB)")
         torch.manual_seed(args.seed)
-        model = make_model(cfg).to(dev)
+        model = to_layout(make_model(cfg).to(dev), cfg)
         opt = torch.optim.Adam(model.parameters(), lr=args.lr, betas=(0.9, 0.999))
         state = {"phase": 1, "epoch": 0, "batch": 0, "steps": 0}
         step2_opt = None
@@ -1073,7 +1144,7 @@ def main(argv=None):
         if state["phase"] == 1:
             ema = None
             if args.ema > 0:
-                ema = make_model(cfg).to(dev).eval()
+                ema = to_layout(make_model(cfg).to(dev), cfg).eval()
                 ema.load_state_dict(ema_resume if ema_resume is not None else model.state_dict())
             if not train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render,
                                ema):
