@@ -9,7 +9,7 @@
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
                          [--sphere-metric log|relative] [--z-dropout 0] [--erase 0] [--ema 0]
                          [--w-map 0] [--sphere-truth lights|map] [--w-primary 0]
-                         [--device cpu|cuda] [--stream]
+                         [--step1-max-size 0] [--device cpu|cuda] [--channels-last] [--stream]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -75,6 +75,12 @@ MODEL_CARD.md, "Direction first"; through the whole network, --w-primary 1 cut e
 off by more than 90 deg from 24-25 to 15 in two pairs of runs but not the median angle, and
 kept int8 within its targets in one of the two: "Direction first through the whole network",
 "The direction term, replicated").
+Small lights in step 1 (not in the paper; off by default): --step1-max-size S renders step 1's
+lights with their solid angle bounded smoothly by S steradians (S tanh(s / S), the loss's view
+only; step 2 fits the size head unbounded, with the directions frozen). Without it the heads
+learn three fixed broad lobes (2-4 sr, where the extracted lights are 0.01-0.2 sr): the L2 on
+the map is best served under uncertainty by the blurred mean, while a small light of given
+energy is best placed at the most likely direction (MODEL_CARD.md, "Where the lights point").
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
@@ -136,11 +142,12 @@ COS45 = math.cos(math.radians(45.0))
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
                "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
-               "erase", "ema", "w_map", "sphere_truth", "w_primary")
+               "erase", "ema", "w_map", "sphere_truth", "w_primary", "step1_max_size")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
                    "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0,
-                   "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights", "w_primary": 0.0}
+                   "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights", "w_primary": 0.0,
+                   "step1_max_size": 0.0}
 AUX_PREFIX = "aux_map."   # the auxiliary map head's tensors: trained, never exported
 
 
@@ -449,14 +456,22 @@ def gt_map(gt, udirs, cfg):
                      prefilter_sigma=sg.pixel_sigma(cfg["map_width"]))
 
 
+def bound_size(out, s_max):
+    """out with its lights' solid angles bounded smoothly: s_max tanh(size / s_max) (about the
+    size itself when small, at most s_max, a gradient everywhere)."""
+    return dict(out, size=s_max * torch.tanh(out["size"].float() / s_max))
+
+
 def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
     w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
-    head's loss when --w-map > 0, plus w_primary * primary_loss when --w-primary > 0.
-    render = (udirs, op, op of the crops' radiance maps or None, their rows' solid-angle weights
+    head's loss when --w-map > 0, plus w_primary * primary_loss when --w-primary > 0; every term
+    sees the lights' sizes bounded by bound_size with --step1-max-size. render = (udirs, op, op of the crops' radiance maps or None, their rows' solid-angle weights
     or None); gm: gt_map(gt, udirs, cfg) when the caller has it already. parts: the terms as
     floats, or with sync=False as detached tensors (reading a float waits for a GPU)."""
     num = float if sync else torch.Tensor.detach
+    if cfg.get("step1_max_size", 0.0) > 0:
+        out = bound_size(out, cfg["step1_max_size"])
     pf = sg.pixel_sigma(cfg["map_width"])
     pm = sg.render(out["dir"].float(), out["size"].float(), out["rgb"].float(), udirs,
                    prefilter_sigma=pf)
@@ -971,6 +986,9 @@ def main(argv=None):
                     "(needs a dataset made with make_dataset.py --gt-map; 0: off)")
     ap.add_argument("--w-primary", type=float, default=0.0, metavar="W",
                     help="weight of the primary light's angular loss in step 1 (primary_loss)")
+    ap.add_argument("--step1-max-size", type=float, default=0.0, metavar="SR",
+                    help="step 1: bound the lights' solid angles the losses see by SR steradians "
+                    "(SR tanh(size / SR); 0: off)")
     ap.add_argument("--sphere-truth", choices=("lights", "map"), default="lights",
                     help="the diffuse-sphere terms' truth: the sphere lit by the extracted lights "
                     "and ambient, or by the crop's real panorama (--gt-map datasets)")
@@ -1025,6 +1043,9 @@ def main(argv=None):
         for name, v in (("--w-map", args.w_map), ("--w-primary", args.w_primary)):
             if not (0.0 <= v and math.isfinite(v)):
                 raise ValueError(f"{name} {v}: expected a weight >= 0")
+        if not (0.0 <= args.step1_max_size <= 4 * math.pi):
+            raise ValueError(f"--step1-max-size {args.step1_max_size}: expected steradians in "
+                             "[0, 4 pi] (0: off)")
         need_map = args.w_map > 0 or args.sphere_truth == "map"
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
@@ -1060,7 +1081,7 @@ def main(argv=None):
                "train_scenes": args.train_scenes, "sphere_metric": args.sphere_metric,
                "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
                "w_map": args.w_map, "sphere_truth": args.sphere_truth,
-               "w_primary": args.w_primary,
+               "w_primary": args.w_primary, "step1_max_size": args.step1_max_size,
                "gt_map_width": int(gt["map"].shape[2]) if need_map else 0,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "threads": [max(1, args.threads)], "device": args.device,
