@@ -65,9 +65,14 @@ grep -q "stopped at --max-steps 1" "$T/run.log" || fail "train.py on the unpacke
 
 # a crop missing from the zip, a corrupt zip, --init-out without an encoder
 cp -r "$T/pack" "$T/bad1"
-"$PY" -c 'import zipfile, sys
-z = zipfile.ZipFile(sys.argv[1] + "/crops.zip"); keep = [(n, z.read(n)) for n in z.namelist()[1:]]; z.close()
-w = zipfile.ZipFile(sys.argv[1] + "/crops.zip", "w"); [w.writestr(n, d) for n, d in keep]; w.close()' "$T/bad1"
+"$PY" - "$T/bad1/crops.zip" <<'PY'
+import sys, zipfile
+with zipfile.ZipFile(sys.argv[1]) as z:
+    keep = [(n, z.read(n)) for n in z.namelist()[1:]]
+with zipfile.ZipFile(sys.argv[1], "w") as w:
+    for n, d in keep:
+        w.writestr(n, d)
+PY
 expect 1 "crops.zip: no crops/c0.webp" -- "${PACK[@]}" unpack "$T/bad1" --out "$T/u1"
 cp -r "$T/pack" "$T/bad2"
 head -c 1000 "$T/pack/crops.zip" >"$T/bad2/crops.zip"
@@ -99,8 +104,8 @@ expect 1 "nope.part0: no such file" -- "${PACK[@]}" unpack-net "$T/nope" "$T/net
 # by side, one epoch of each step; the networks come back as parts that unpack and export. Then
 # a budget too short: the runs are stopped, the log says so, no parts.
 expect 0 "packed 4 crops" -- "${PACK[@]}" pack --data "$T/data" --out "$T/pack2"
-R=(env DEVICE=cpu INPUT=96x128 P="$PY" WORK="$T/rw" EXTRA="--step1-epochs 1 --step2-epochs 1 --batch 2 --threads 1"
-   tools/train/remote_run.sh "$T/pack2")
+R=(env DEVICE=cpu INPUT=96x128 P="$PY" WORK="$T/rw"
+   EXTRA="--step1-epochs 1 --step2-epochs 1 --batch 2 --threads 1" tools/train/remote_run.sh "$T/pack2")
 expect 0 "" -- "${R[@]}" "$T/rout" 1 2
 for s in 1 2; do
     grep -q "seed $s ended with status 0" "$T/rout/logs.txt" || fail "remote_run: seed $s did not finish"

@@ -25,8 +25,10 @@ unpack writes a folder train.py reads like the original: index.tsv, crops/*.webp
 crop. pack-net brings a trained network back the same way: a train.py checkpoint's network (no
 optimizer, no training-only head) with its tensors of 4096 values or more as float16, split
 into parts of at most 15 MiB (17.4 MB in two parts for the 96x128 or 192x256 network);
-unpack-net joins them into a checkpoint train.py --export-only exports. The network trained on it is not the one the PNGs give: the pixels carry WebP's loss and
-the maps float16's rounding (MODEL_CARD.md says which shipped network was trained so).
+unpack-net joins them into a checkpoint train.py --export-only exports. A network trained on a
+pack is not the one the PNGs give: the pixels carry WebP's loss, the maps and the encoder
+float16's rounding, and the network brought back float16's rounding of its large tensors.
+tools/train/remote_run.sh runs the whole round on the remote machine.
 """
 
 import argparse

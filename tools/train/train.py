@@ -104,8 +104,9 @@ drawn on the CPU as before. --channels-last runs the network in that memory layo
 for bf16 convolutions; the checkpoints hold the default layout). --device cpu (the default) is
 bit-identical to the runs before the options existed. The first GPU run (model card, "The paper's
 input on a GPU", 2026-12-06, H100) had none of these three and trained at 160-225 img/s at
-192x256 beside a second run; what they gain there has not been measured. A run may be resumed on another device (the devices used are
-recorded, like the thread counts): it continues, but is not bit-identical to an uninterrupted one.
+192x256 beside a second run; what they gain there has not been measured. A run may be resumed
+on another device (the devices used are recorded, like the thread counts): it continues, but is
+not bit-identical to an uninterrupted one.
 
 The log (--log) gets one line per epoch: date, step, epoch, lr, train and validation losses,
 images per second. The model is exported with tools/export.py's code path (folded tensors,
@@ -466,9 +467,10 @@ def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
     w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
     head's loss when --w-map > 0, plus w_primary * primary_loss when --w-primary > 0; every term
-    sees the lights' sizes bounded by bound_size with --step1-max-size. render = (udirs, op, op of the crops' radiance maps or None, their rows' solid-angle weights
-    or None); gm: gt_map(gt, udirs, cfg) when the caller has it already. parts: the terms as
-    floats, or with sync=False as detached tensors (reading a float waits for a GPU)."""
+    sees the lights' sizes bounded by bound_size with --step1-max-size. render = (udirs, op, op
+    of the crops' radiance maps or None, their rows' solid-angle weights or None); gm:
+    gt_map(gt, udirs, cfg) when the caller has it already. parts: the terms as floats, or with
+    sync=False as detached tensors (reading a float waits for a GPU)."""
     num = float if sync else torch.Tensor.detach
     if cfg.get("step1_max_size", 0.0) > 0:
         out = bound_size(out, cfg["step1_max_size"])
