@@ -81,6 +81,8 @@ only; step 2 fits the size head unbounded, with the directions frozen). Without 
 learn three fixed broad lobes (2-4 sr, where the extracted lights are 0.01-0.2 sr): the L2 on
 the map is best served under uncertainty by the blurred mean, while a small light of given
 energy is best placed at the most likely direction (MODEL_CARD.md, "Where the lights point").
+Measured, not shipped (MODEL_CARD.md, "Small lights in step 1": --step1-max-size 0.5 in two
+seeds): the lobes stayed fixed, and the primary light's angle on eval/ got 14-21 deg worse.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
