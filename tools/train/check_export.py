@@ -23,6 +23,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 import golden  # noqa: E402
+import train  # noqa: E402
 from model import ParLightNet, preprocess  # noqa: E402
 
 
@@ -37,12 +38,11 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=1e-3)
     args = ap.parse_args(argv)
     try:
-        ck = torch.load(args.ckpt, map_location="cpu", weights_only=False)
+        ck = train.load_ckpt(args.ckpt)
         cfg = ck["config"]
         model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
         # train.py --w-map's auxiliary head is training only: never exported
-        model.load_state_dict({k: v for k, v in ck["model"].items()
-                               if not k.startswith("aux_map.")})
+        model.load_state_dict(train.without_aux(ck["model"]))
         model = model.double().eval()
         h, w = cfg["input"]
         frame = golden.read_frame(args.frame, h, w)

@@ -156,11 +156,12 @@ PART = 15 << 20
 
 def pack_net(ckpt, stem):
     import torch
-    ck = torch.load(ckpt, map_location="cpu", weights_only=False)
+    import train    # torch and the checkpoint helpers: only where a network is packed
+    ck = train.load_ckpt(ckpt)
     if not isinstance(ck, dict) or not isinstance(ck.get("model"), dict) or "config" not in ck:
         raise ValueError(f"{ckpt}: not a train.py checkpoint (no model/config)")
     sd = {k: (v.half() if v.is_floating_point() and v.numel() >= 4096 else v)
-          for k, v in ck["model"].items() if not k.startswith("aux_map.")}
+          for k, v in train.without_aux(ck["model"]).items()}
     buf = io.BytesIO()
     torch.save({"model": sd, "config": ck["config"], "state": ck.get("state", {}),
                 "packed_from": os.path.basename(ckpt)}, buf)
