@@ -238,22 +238,50 @@ print("--ema: step1_raw.pt is the plain run's step 1, step1.pt the average; form
 EOF
 
 # --- dense supervision: --w-map (an auxiliary head regressing the crop's radiance map from the
-# 512-d vector) and --sphere-truth map (the diffuse-sphere truth lit by the real panorama). They
+# 512-d vector), --w-src (a second one: a distribution over the map's pixels trained towards
+# their share of its light energy) and --sphere-truth map (the diffuse-sphere truth lit by the
+# real panorama). They
 # resume bit-identically, the head trains and its loss is logged, the export leaves it out (the
 # same tensors as a plain export, and C agrees with the checkpoint), and a dataset without
 # radiance maps is refused ---
-DENSE=(--w-map 1 --sphere-truth map --w-d1 5 --step2-loss render --w-primary 1)
+DENSE=(--w-map 1 --w-src 1 --sphere-truth map --w-d1 5 --step2-loss render --w-primary 1)
 resume_pair ckm dense "${DENSE[@]}"
 "$PY" - "$TMP/ckm/last.pt" "$TMP/ckm2/last.pt" <<'EOF' || fail "dense resume"
 import sys, torch
 a, b = (torch.load(p, map_location="cpu")["model"] for p in sys.argv[1:3])
-assert "aux_map.lin.weight" in a, "no auxiliary head in the checkpoint"
+assert "aux_map.lin.weight" in a and "aux_src.lin.weight" in a, "an auxiliary head is missing"
 worst = max(float((a[k].float() - b[k].float()).abs().max()) for k in a)
 assert worst <= 1e-6, f"resumed vs uninterrupted: {worst}"
 print(f"--w-map --sphere-truth map: resumed vs uninterrupted {worst:.3g}")
 EOF
 grep -q " aux " "$TMP/log-ckm" || fail "--w-map: no auxiliary loss in $(cat "$TMP/log-ckm")"
 grep -q " primary " "$TMP/log-ckm" || fail "--w-primary: no primary loss in $(cat "$TMP/log-ckm")"
+grep -q " src " "$TMP/log-ckm" || fail "--w-src: no source loss in $(cat "$TMP/log-ckm")"
+"$PY" - <<'EOF' || fail "source_loss"
+# the source term: each pixel's share of the map's energy weighs luminance by the row's solid
+# angle; the KL is 0 for logits equal to the log shares, grows as they part, ignores the map's
+# scale, and against a uniform distribution is log(8) - H(p)
+import sys, torch
+sys.path.insert(0, "tools/train")
+import train
+wts = train.map_weights(2, 4)
+m = torch.zeros(1, 2, 4, 3)
+m[0, 0, 1] = 1.0                       # one white pixel in the upper row
+m[0, 1, 2] = torch.tensor([0., 0, 3])  # a blue one in the lower (luminance 0.0722 x 3)
+p = train.source_share(m, wts)
+e1, e2 = float(wts[0, 0, 0]), 3 * 0.0722 * float(wts[1, 0, 0])
+assert abs(float(p[0, 0, 1]) - e1 / (e1 + e2)) < 1e-6 and abs(float(p.sum()) - 1) < 1e-6, p
+logits = torch.log(p.clamp_min(1e-12))
+assert float(train.source_loss(logits, m, wts)) < 1e-5
+assert float(train.source_loss(logits, m * 1000, wts)) < 1e-5
+nz = p[p > 0]
+kl_uniform = float((nz * torch.log(8 * nz)).sum())
+assert abs(float(train.source_loss(torch.zeros(1, 2, 4), m, wts)) - kl_uniform) < 1e-5
+worse = logits.clone()
+worse[0, 0, 1] -= 2
+assert float(train.source_loss(worse, m, wts)) > 0.01
+print("source_loss: energy shares, 0 at them, scale-free, log 8 - H against uniform")
+EOF
 "$PY" - <<'EOF' || fail "primary_loss"
 # the primary-light loss: 0 when the most energetic predicted light points at the truth's primary,
 # 2 when it points away, and the lights' energies (not their order) decide which is primary
@@ -276,7 +304,7 @@ EOF
 "${TR[@]}" "${DENSE[@]}" --ckpt-dir "$TMP/ckm" --log "$TMP/log-ckm" --export "$TMP/mm.plm" \
     >/dev/null || fail "dense: finish and export"
 [ "$(stat -c %s "$TMP/mm.plm")" = "$(stat -c %s "$TMP/m.plm")" ] ||
-    fail "the export with --w-map differs in size from a plain one (auxiliary head exported?)"
+    fail "the export with --w-map --w-src differs in size from a plain one (auxiliary head exported?)"
 "$PY" tools/train/check_export.py --ckpt "$TMP/ckm/final.pt" --plm "$TMP/mm.plm" --frame "$f" \
     --parlight "$BUILD/parlight" >/dev/null || fail "dense: C and PyTorch disagree"
 "${DS[@]}" --gt-map 0 --out "$TMP/data-nomap" >/dev/null || fail "make_dataset.py --gt-map 0"

@@ -9,7 +9,8 @@
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
                          [--sphere-metric log|relative] [--z-dropout 0] [--erase 0] [--ema 0]
                          [--w-map 0] [--sphere-truth lights|map] [--w-primary 0]
-                         [--step1-max-size 0] [--device cpu|cuda] [--channels-last] [--stream]
+                         [--step1-max-size 0] [--w-src 0] [--device cpu|cuda] [--channels-last]
+                         [--stream]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
 
 Step 1 (paper sec. 3.3.1, "radius, colour and position"): the whole network; the predicted
@@ -83,6 +84,13 @@ the map is best served under uncertainty by the blurred mean, while a small ligh
 energy is best placed at the most likely direction (MODEL_CARD.md, "Where the lights point").
 Measured, not shipped (MODEL_CARD.md, "Small lights in step 1": --step1-max-size 0.5 in two
 seeds): the lobes stayed fixed, and the primary light's angle on eval/ got 14-21 deg worse.
+Where the light comes from (not in the paper; off by default; needs --gt-map data as --w-map):
+--w-src W adds W times source_loss in step 1: a second training-only head on h (AuxSource,
+never exported) gives a distribution over the radiance map's pixels, trained by KL divergence
+towards each pixel's share of the panorama's luminous energy (luminance x solid angle). The
+map's L2 sees mostly the walls (the lights are a few pixels of 512); this term sees mostly the
+lights, and its distribution can keep several candidate directions where a regressed one
+settles on their mean. Its argmax is a direction readout of the encoder for diagnosis.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
@@ -145,13 +153,13 @@ COS45 = math.cos(math.radians(45.0))
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
                "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
-               "erase", "ema", "w_map", "sphere_truth", "w_primary", "step1_max_size")
+               "erase", "ema", "w_map", "sphere_truth", "w_primary", "step1_max_size", "w_src")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
                    "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0,
                    "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights", "w_primary": 0.0,
-                   "step1_max_size": 0.0}
-AUX_PREFIX = "aux_map."   # the auxiliary map head's tensors: trained, never exported
+                   "step1_max_size": 0.0, "w_src": 0.0}
+AUX_PREFIX = ("aux_map.", "aux_src.")   # the auxiliary heads' tensors: trained, never exported
 
 
 def log_line(path, text):
@@ -334,11 +342,31 @@ class AuxMap(torch.nn.Module):
         return self.lin(h).view(-1, *self.hw, 3)
 
 
+class AuxSource(torch.nn.Module):
+    """Training only (--w-src): a linear head from the 512-d vector h to logits over the crop's
+    radiance-map pixels, [B, H, W]; their softmax is trained towards where the panorama's light
+    energy comes from (source_share). A distribution over directions can hold several modes
+    where a regressed direction or the map's L2 settle on a blurred mean. Dropped at export
+    (AUX_PREFIX), like AuxMap."""
+
+    def __init__(self, width, fc=512):
+        super().__init__()
+        self.hw = (width // 2, width)
+        self.lin = torch.nn.Linear(fc, width // 2 * width)
+
+    def forward(self, h):
+        return self.lin(h).view(-1, *self.hw)
+
+
 def make_model(cfg):
-    """ParLightNet for cfg, with the auxiliary map head when cfg["w_map"] > 0."""
+    """ParLightNet for cfg, with the auxiliary map head when cfg["w_map"] > 0 and the source
+    head when cfg["w_src"] > 0 (both made after the network, so the network's initialisation
+    does not depend on them)."""
     model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
     if cfg.get("w_map", 0.0) > 0:
         model.aux_map = AuxMap(cfg["gt_map_width"])
+    if cfg.get("w_src", 0.0) > 0:
+        model.aux_src = AuxSource(cfg["gt_map_width"])
     return model
 
 
@@ -358,18 +386,21 @@ def net_input(u8, cfg):
 
 
 def run_net(model, u8, cfg):
-    """The network's outputs for u8 images (copied to the run's device), with "aux_map" when the
-    model has the auxiliary head (under the same autocast as the network)."""
+    """The network's outputs for u8 images (copied to the run's device), with "aux_map" and
+    "aux_src" when the model has those auxiliary heads (under the same autocast as the
+    network)."""
     dev = device_of(cfg)
     with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=cfg["bf16"]):
         out = model(net_input(u8, cfg))
         if hasattr(model, "aux_map"):
             out["aux_map"] = model.aux_map(out["h"])
+        if hasattr(model, "aux_src"):
+            out["aux_src"] = model.aux_src(out["h"])
     return out
 
 
 def load_net(model, sd):
-    """Loads a checkpoint's network into model: the auxiliary head's tensors only when model has
+    """Loads a checkpoint's network into model: an auxiliary head's tensors only when model has
     the head (a network trained with one loads into one without, and the other way round the
     head keeps its fresh initialisation); every other tensor must match."""
     have = model.state_dict()
@@ -378,7 +409,7 @@ def load_net(model, sd):
 
 
 def without_aux(sd):
-    """A state dict without the auxiliary head's tensors (what ParLightNet itself holds)."""
+    """A state dict without the auxiliary heads' tensors (what ParLightNet itself holds)."""
     return {k: v for k, v in sd.items() if not k.startswith(AUX_PREFIX)}
 
 
@@ -459,6 +490,22 @@ def gt_map(gt, udirs, cfg):
                      prefilter_sigma=sg.pixel_sigma(cfg["map_width"]))
 
 
+def source_share(m, wts):
+    """[B, H, W]: each pixel's share of radiance maps m [B, H, W, 3] in their luminous energy
+    (luminance x the row's solid-angle weight wts [H, W, 1]); 1 in all per map (a black map:
+    all 0)."""
+    e = (m.float() @ torch.tensor(LUMA, device=m.device)) * wts[..., 0]
+    return e / e.sum((1, 2), keepdim=True).clamp_min(1e-30)
+
+
+def source_loss(logits, m, wts):
+    """KL(source_share(m) || softmax(logits)) over each map's pixels, mean over the maps: 0 when
+    the head's distribution is the energy's, and a pixel without energy adds nothing of its own."""
+    p = source_share(m, wts).flatten(1)
+    lq = torch.log_softmax(logits.float().flatten(1), 1)
+    return (p * (torch.log(p.clamp_min(1e-30)) - lq)).sum(1).mean()
+
+
 def bound_size(out, s_max):
     """out with its lights' solid angles bounded smoothly: s_max tanh(size / s_max) (about the
     size itself when small, at most s_max, a gradient everywhere)."""
@@ -468,7 +515,8 @@ def bound_size(out, s_max):
 def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
     w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
-    head's loss when --w-map > 0, plus w_primary * primary_loss when --w-primary > 0; every term
+    head's loss when --w-map > 0, plus w_src * the source head's source_loss when --w-src > 0,
+    plus w_primary * primary_loss when --w-primary > 0; every term
     sees the lights' sizes bounded by bound_size with --step1-max-size. render = (udirs, op, op
     of the crops' radiance maps or None, their rows' solid-angle weights or None); gm:
     gt_map(gt, udirs, cfg) when the caller has it already. parts: the terms as floats, or with
@@ -494,6 +542,10 @@ def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
         lm = (((out["aux_map"].float() - torch.log1p(gt["map"])) ** 2) * render[3]).mean()
         total = total + cfg["w_map"] * lm
         parts["aux"] = num(lm)
+    if cfg.get("w_src", 0.0) > 0:
+        lsrc = source_loss(out["aux_src"], gt["map"], render[3])
+        total = total + cfg["w_src"] * lsrc
+        parts["src"] = num(lsrc)
     if cfg.get("w_primary", 0.0) > 0:
         lp = primary_loss(out, gt)
         total = total + cfg["w_primary"] * lp
@@ -810,7 +862,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
                 sums["loss"] += float(loss)
                 sums["map"] += parts["map"]
                 sums["amb"] += parts["amb"]
-                for key in ("sphere", "aux", "primary"):
+                for key in ("sphere", "aux", "src", "primary"):
                     if key in parts:
                         sums[key] = sums.get(key, 0.0) + parts[key]
                 sums["n"] += 1
@@ -840,6 +892,7 @@ def train_step1(model, opt, imgs, gt, tr, va, udirs, cfg, state, paths, render=N
                  f"loss {sums['loss'] / n:.6g} (map {sums['map'] / n:.6g} amb {sums['amb'] / n:.6g}"
                  + (f" sphere {sums['sphere'] / n:.6g}" if "sphere" in sums else "")
                  + (f" aux {sums['aux'] / n:.6g}" if "aux" in sums else "")
+                 + (f" src {sums['src'] / n:.6g}" if "src" in sums else "")
                  + (f" primary {sums['primary'] / n:.6g}" if "primary" in sums else "") + ") "
                  f"val {vl:.6g}{vl_ema} | {seen / max(dt, 1e-9):.2f} img/s, {dt:.0f} s"
                  + (" (resumed epoch: rate over its last part)" if resumed_at else ""))
@@ -993,6 +1046,11 @@ def main(argv=None):
     ap.add_argument("--step1-max-size", type=float, default=0.0, metavar="SR",
                     help="step 1: bound the lights' solid angles the losses see by SR steradians "
                     "(SR tanh(size / SR); 0: off)")
+    ap.add_argument("--w-src", type=float, default=0.0, metavar="W",
+                    help="step 1: weight of an auxiliary head (training only, not exported) "
+                    "giving a distribution over the radiance map's pixels, trained towards each "
+                    "pixel's share of the panorama's light energy (needs make_dataset.py "
+                    "--gt-map; 0: off)")
     ap.add_argument("--sphere-truth", choices=("lights", "map"), default="lights",
                     help="the diffuse-sphere terms' truth: the sphere lit by the extracted lights "
                     "and ambient, or by the crop's real panorama (--gt-map datasets)")
@@ -1044,13 +1102,14 @@ def main(argv=None):
                 raise ValueError(f"{name} {v}: expected a probability in [0, 1)")
         if not 0.0 <= args.ema < 1.0:
             raise ValueError(f"--ema {args.ema}: expected a decay in [0, 1)")
-        for name, v in (("--w-map", args.w_map), ("--w-primary", args.w_primary)):
+        for name, v in (("--w-map", args.w_map), ("--w-primary", args.w_primary),
+                        ("--w-src", args.w_src)):
             if not (0.0 <= v and math.isfinite(v)):
                 raise ValueError(f"{name} {v}: expected a weight >= 0")
         if not (0.0 <= args.step1_max_size <= 4 * math.pi):
             raise ValueError(f"--step1-max-size {args.step1_max_size}: expected steradians in "
                              "[0, 4 pi] (0: off)")
-        need_map = args.w_map > 0 or args.sphere_truth == "map"
+        need_map = args.w_map > 0 or args.w_src > 0 or args.sphere_truth == "map"
         if args.map_width % 2:
             raise ValueError(f"--map-width {args.map_width}: expected an even number")
         if not (args.lr > 0 and math.isfinite(args.lr)):
@@ -1086,6 +1145,7 @@ def main(argv=None):
                "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
                "w_map": args.w_map, "sphere_truth": args.sphere_truth,
                "w_primary": args.w_primary, "step1_max_size": args.step1_max_size,
+               "w_src": args.w_src,
                "gt_map_width": int(gt["map"].shape[2]) if need_map else 0,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "threads": [max(1, args.threads)], "device": args.device,
