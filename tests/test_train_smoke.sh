@@ -240,10 +240,9 @@ EOF
 # --- dense supervision: --w-map (an auxiliary head regressing the crop's radiance map from the
 # 512-d vector), --w-src (a second one: a distribution over the map's pixels trained towards
 # their share of its light energy) and --sphere-truth map (the diffuse-sphere truth lit by the
-# real panorama). They
-# resume bit-identically, the head trains and its loss is logged, the export leaves it out (the
-# same tensors as a plain export, and C agrees with the checkpoint), and a dataset without
-# radiance maps is refused ---
+# real panorama). They resume bit-identically, the heads train and their losses are logged, the
+# export leaves them out (the same tensors as a plain export, and C agrees with the checkpoint),
+# and a dataset without radiance maps is refused ---
 DENSE=(--w-map 1 --w-src 1 --sphere-truth map --w-d1 5 --step2-loss render --w-primary 1)
 resume_pair ckm dense "${DENSE[@]}"
 "$PY" - "$TMP/ckm/last.pt" "$TMP/ckm2/last.pt" <<'EOF' || fail "dense resume"
