@@ -251,7 +251,7 @@ a, b = (torch.load(p, map_location="cpu")["model"] for p in sys.argv[1:3])
 assert "aux_map.lin.weight" in a and "aux_src.lin.weight" in a, "an auxiliary head is missing"
 worst = max(float((a[k].float() - b[k].float()).abs().max()) for k in a)
 assert worst <= 1e-6, f"resumed vs uninterrupted: {worst}"
-print(f"--w-map --sphere-truth map: resumed vs uninterrupted {worst:.3g}")
+print(f"--w-map --w-src --sphere-truth map: resumed vs uninterrupted {worst:.3g}")
 EOF
 grep -q " aux " "$TMP/log-ckm" || fail "--w-map: no auxiliary loss in $(cat "$TMP/log-ckm")"
 grep -q " primary " "$TMP/log-ckm" || fail "--w-primary: no primary loss in $(cat "$TMP/log-ckm")"

@@ -41,7 +41,7 @@ def main(argv=None):
         ck = train.load_ckpt(args.ckpt)
         cfg = ck["config"]
         model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
-        # train.py --w-map's auxiliary head is training only: never exported
+        # train.py's auxiliary heads (--w-map, --w-src) are training only: never exported
         model.load_state_dict(train.without_aux(ck["model"]))
         model = model.double().eval()
         h, w = cfg["input"]

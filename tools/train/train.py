@@ -61,7 +61,7 @@ with or without it.
 Denser supervision (not in the paper; off by default; needs a dataset made with make_dataset.py
 --gt-map, whose ground truth carries each crop's panorama rotated into its camera frame on its
 scale, W x W/2): --w-map W adds W times an auxiliary loss in step 1: a linear head from the 512-d
-vector h (AuxMap, training only, never exported: the .plm and the C graph do not change) regresses
+vector h (AuxHead, training only, never exported: the .plm and the C graph do not change) regresses
 the map after log1p, L2 weighted by each row's solid angle. --sphere-truth map lights the
 diffuse-sphere terms' truth (--w-d1, --step2-loss render) by that real panorama instead of the
 extracted lights + ambient: what `parlight eval` scores against, light the extraction left out
@@ -85,7 +85,7 @@ energy is best placed at the most likely direction (MODEL_CARD.md, "Where the li
 Measured, not shipped (MODEL_CARD.md, "Small lights in step 1": --step1-max-size 0.5 in two
 seeds): the lobes stayed fixed, and the primary light's angle on eval/ got 14-21 deg worse.
 Where the light comes from (not in the paper; off by default; needs --gt-map data as --w-map):
---w-src W adds W times source_loss in step 1: a second training-only head on h (AuxSource,
+--w-src W adds W times source_loss in step 1: a second training-only head on h (AuxHead,
 never exported) gives a distribution over the radiance map's pixels, trained by KL divergence
 towards each pixel's share of the panorama's luminous energy (luminance x solid angle). The
 map's L2 sees mostly the walls (the lights are a few pixels of 512); this term sees mostly the
@@ -327,35 +327,24 @@ def radiance_map(obj):
     return t
 
 
-class AuxMap(torch.nn.Module):
-    """Training only (--w-map): a linear head from the 512-d vector h to the crop's radiance map
-    after log1p, [B, H, W, 3]; dropped at export (AUX_PREFIX), so the .plm and the C graph do
-    not change. It makes h, which every light head reads, carry the whole panorama's layout
-    rather than only the three extracted lights."""
+class AuxHead(torch.nn.Module):
+    """Training only: a linear head from the 512-d vector h to a tensor [B, *shape] over the
+    crop's radiance-map pixels; dropped at export (AUX_PREFIX), so the .plm and the C graph do
+    not change.
+    - aux_map (--w-map), shape [H, W, 3]: the radiance map after log1p. It makes h, which every
+      light head reads, carry the whole panorama's layout rather than only the three extracted
+      lights.
+    - aux_src (--w-src), shape [H, W]: logits whose softmax is trained towards where the
+      panorama's light energy comes from (source_share). A distribution over directions can hold
+      several modes where a regressed direction or the map's L2 settle on a blurred mean."""
 
-    def __init__(self, width, fc=512):
+    def __init__(self, shape, fc=512):
         super().__init__()
-        self.hw = (width // 2, width)
-        self.lin = torch.nn.Linear(fc, width // 2 * width * 3)
+        self.shape = tuple(shape)
+        self.lin = torch.nn.Linear(fc, math.prod(self.shape))
 
     def forward(self, h):
-        return self.lin(h).view(-1, *self.hw, 3)
-
-
-class AuxSource(torch.nn.Module):
-    """Training only (--w-src): a linear head from the 512-d vector h to logits over the crop's
-    radiance-map pixels, [B, H, W]; their softmax is trained towards where the panorama's light
-    energy comes from (source_share). A distribution over directions can hold several modes
-    where a regressed direction or the map's L2 settle on a blurred mean. Dropped at export
-    (AUX_PREFIX), like AuxMap."""
-
-    def __init__(self, width, fc=512):
-        super().__init__()
-        self.hw = (width // 2, width)
-        self.lin = torch.nn.Linear(fc, width // 2 * width)
-
-    def forward(self, h):
-        return self.lin(h).view(-1, *self.hw)
+        return self.lin(h).view(-1, *self.shape)
 
 
 def make_model(cfg):
@@ -364,9 +353,9 @@ def make_model(cfg):
     does not depend on them)."""
     model = ParLightNet(cfg["n_lights"], tuple(cfg["input"]))
     if cfg.get("w_map", 0.0) > 0:
-        model.aux_map = AuxMap(cfg["gt_map_width"])
+        model.aux_map = AuxHead((cfg["gt_map_width"] // 2, cfg["gt_map_width"], 3))
     if cfg.get("w_src", 0.0) > 0:
-        model.aux_src = AuxSource(cfg["gt_map_width"])
+        model.aux_src = AuxHead((cfg["gt_map_width"] // 2, cfg["gt_map_width"]))
     return model
 
 
