@@ -91,6 +91,9 @@ towards each pixel's share of the panorama's luminous energy (luminance x solid 
 map's L2 sees mostly the walls (the lights are a few pixels of 512); this term sees mostly the
 lights, and its distribution can keep several candidate directions where a regressed one
 settles on their mean. Its argmax is a direction readout of the encoder for diagnosis.
+Measured, not shipped (MODEL_CARD.md, "Where the light comes from": --w-src 1 in two seeds): the
+lights followed the room more but were ranked worse; the primary light's angle on eval/ got 1-10
+deg worse.
 --train-scenes indoor trains on the indoor and indoor-semi panoramas' crops only, synthetic
 rooms included (the held-out ones of both kinds stay the validation).
 
