@@ -154,6 +154,9 @@ echo "ok  FIFO, device and directory refused by name (model, --hdr, --lights, co
 # --- SIGTERM during start-up: exit 0 (143 only if it lands before main, with nothing made) ---
 for d in 0 0.01 0.05; do
     rm -f "$sock"
+    # a signal that lands before the child has opened 2> leaves the file as it
+    # was: empty it here, or an earlier check's message reads as this one's
+    : >"$T/err"
     "$P" estimate --model "$A" --input "$T/frames" --out "unix:$sock" >/dev/null 2>"$T/err" &
     pid=$!
     sleep $d
