@@ -1,4 +1,5 @@
 /* L2 spherical harmonics (radiance projection, WebXR order) of lights and of maps. */
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -134,9 +135,14 @@ void pl_lighting_engine(const pl_lighting *L, pl_engine_lighting *out)
     double d[3] = {out->dir[0], out->dir[1], out->dir[2]};
     double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     if (!(n > 0)) return;
+    /* The maths below uses d normalised in double. dir itself stays the primary light's, bit for
+     * bit, when that is already unit to float precision (the network's, normalised in float):
+     * normalising it again in double can move its last bit, and engine.dir then reads as
+     * another direction than primary.dir. A user's unit-ish direction is normalised. */
+    int renorm = fabs(n - 1.0) > 4.0 * FLT_EPSILON;
     for (int k = 0; k < 3; k++) {
         d[k] /= n;
-        out->dir[k] = (float)d[k];
+        if (renorm) out->dir[k] = (float)d[k];
     }
     double e = lobe_directional_share(4.0 * M_PI / L->lights[i].solid_angle_sr), y[9];
     sh_basis(d, y);

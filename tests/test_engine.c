@@ -154,6 +154,47 @@ int main(void)
     L.lights[0] = light(0.2f, 0.9f, -0.3f, 2.9f, 3, 3, 3);
     L.ambient[0] = L.ambient[1] = L.ambient[2] = 0.2f;
     scenario("one wide lobe (2.9 sr) + ambient", &L, 0.01);
+    /* engine.dir is the primary light's direction as given when that is unit to float precision
+     * (the network normalises in float): normalising again in double moves the last bit of some
+     * of them, and engine.dir then prints as another direction than primary.dir. A unit-ish
+     * direction (|d| 1.5) is normalised. */
+    int moved = 0, same = 0;
+    for (int r = 0; r < 2000; r++) {
+        float v[3] = {(float)rint_in(-1000, 1000) + 0.25f, (float)rint_in(-1000, 1000),
+                      (float)rint_in(-1000, 1000)};
+        float fn = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        double dn = 0;
+        for (int k = 0; k < 3; k++) {
+            v[k] /= fn;
+            dn += (double)v[k] * v[k];
+        }
+        for (int k = 0; k < 3; k++)
+            moved += (float)(v[k] / sqrt(dn)) != v[k];
+        memset(&L, 0, sizeof L);
+        L.n_lights = 1;
+        L.lights[0] = (pl_light){{v[0], v[1], v[2]}, 2, 0.1f, {5, 5, 5}};
+        float pd[3], rgb[3];
+        pl_lighting_primary(&L, pd, rgb);
+        pl_engine_lighting E;
+        pl_lighting_engine(&L, &E);
+        same += memcmp(E.dir, pd, sizeof pd) == 0;
+    }
+    CHECK(moved > 0, "no float-normalised direction moves when normalised again (test is blind)");
+    CHECK(same == 2000, "engine.dir differs from the primary's unit direction in %d of 2000",
+          2000 - same);
+    printf("2000 float-unit directions: engine.dir = primary.dir in %d (a double "
+           "renormalisation would move %d components)\n", same, moved);
+    memset(&L, 0, sizeof L);
+    L.n_lights = 1;
+    L.lights[0] = (pl_light){{0.9f, 1.2f, 0.0f}, 2, 0.1f, {5, 5, 5}}; /* |d| = 1.5 */
+    {
+        pl_engine_lighting E;
+        pl_lighting_engine(&L, &E);
+        double n = sqrt((double)E.dir[0] * E.dir[0] + (double)E.dir[1] * E.dir[1] +
+                        (double)E.dir[2] * E.dir[2]);
+        CHECK(fabs(n - 1) < 1e-6 && fabs(E.dir[1] - 0.8) < 1e-6, "unit-ish dir not normalised: "
+              "(%g, %g, %g)", (double)E.dir[0], (double)E.dir[1], (double)E.dir[2]);
+    }
     if (failures) {
         printf("%d failure(s)\n", failures);
         return 1;
