@@ -7,8 +7,9 @@
 # train.py at 96x128, batch 2: 2 step-1 batches (loss finite), a resume from the
 # checkpoint to 4 batches that ends with the same weights as 4 batches in one go, the rest of
 # step 1 and step 2, the export (.plm), --ema (resumes, never feeds back, ends step 1 on
-# the average), --w-map, --sphere-truth map and --w-primary (resume, the auxiliary head is not
-# exported; the primary-light loss on known cases),
+# the average), --bf16's note on CPUs without bf16, --w-map,
+# --sphere-truth map and --w-primary (resume, the auxiliary head is not exported; the
+# primary-light loss on known cases),
 # and the exported model in C (parlight info, estimate)
 # against the checkpoint in PyTorch on one crop (tools/train/check_export.py, relative 1e-3);
 # tools/train/int8_sim.py on its int8 quantisations against parlight qcheck.
@@ -235,6 +236,25 @@ for t in range(30):
 assert torch.allclose(ema.weight, want, atol=1e-6), (ema.weight, want)
 assert int(ema.num_batches_tracked) == 30 and not torch.equal(ema.running_mean, net.running_mean)
 print("--ema: step1_raw.pt is the plain run's step 1, step1.pt the average; formula checked")
+EOF
+
+# --- --bf16 on a CPU without native bf16 (avx512_bf16, amx_bf16) says it will be slow ---
+"$PY" - "$TMP" <<'EOF' || fail "cpu_bf16_note"
+import os, sys, torch
+sys.path[:0] = ["tools/train", "tools"]
+import train
+cpu = torch.device("cpu")
+def info(flags):
+    p = os.path.join(sys.argv[1], "cpuinfo")
+    with open(p, "w") as f:
+        f.write("processor\t: 0\nflags\t\t: " + flags + "\n")
+    return p
+assert "slower" in train.cpu_bf16_note(cpu, True, info("fpu sse2 avx2 fma"))
+for flags in ("fpu avx512f avx512_bf16", "fpu amx_bf16 amx_tile"):
+    assert train.cpu_bf16_note(cpu, True, info(flags)) is None, flags
+assert train.cpu_bf16_note(cpu, False, info("fpu avx2")) is None
+assert train.cpu_bf16_note(cpu, True, os.path.join(sys.argv[1], "missing")) is None
+print("--bf16 note: on AVX2 alone, not with avx512_bf16 or amx_bf16, not without --bf16")
 EOF
 
 # --- dense supervision: --w-map (an auxiliary head regressing the crop's radiance map from the

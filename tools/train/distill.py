@@ -92,6 +92,9 @@ def main(argv=None):
             raise ValueError("--epochs and --batch must be >= 1")
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         dev = train.parse_device(args.device)
+        note = train.cpu_bf16_note(dev, args.bf16)
+        if note:
+            print(note, file=sys.stderr)
         imgs, _gt, val, held, digest = train.load_dataset(args.data, args.input, args.val_panos,
                                                           args.limit, stream=args.stream)
         with open(os.path.join(args.data, "index.tsv"), encoding="utf-8") as f:
