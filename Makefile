@@ -13,12 +13,22 @@
 #   make fuzz         libFuzzer targets (tests/fuzz/, clang) into build/fuzz/, each run
 #                     FUZZ_SECONDS (default 60) from its corpus (docs/TESTING.md)
 #
+# The targets that build for you (demo, test, fuzz, bench, test-camera) compile on every core
+# (JOBS, default nproc) unless you chose: `make -j1 test` builds one file at a time, `make -j8
+# test` shares make's own job slots.
+#
 # Everything is built out of tree under $(BUILD). Sources are found by directory, so a new file
 # in core/, model/, kernels/, quant/, light/ or port/ joins the library without editing this
 # file; tests/*.c each become one program in $(BUILD)/tests/ (tests/run.sh runs the test_* ones).
 
 .DEFAULT_GOAL := all
 BOARD ?= host
+
+# The sub-make of the targets that build for you: -j$(JOBS) unless the command line (or
+# MAKEFLAGS) already holds a -j. A serial build of the suite's three trees took most of CI's time
+# on a 2-core machine (docs/TESTING.md, "How long CI takes").
+JOBS ?= $(shell nproc 2>/dev/null || echo 1)
+SUBMAKE = $(MAKE) --no-print-directory $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
 
 # ---- sanitizer and fuzz builds (docs/TESTING.md) ----------------------------------------------
 # SAN=1: every object, the library, the CLI, the plugins and the tests are built with ASan and
@@ -170,6 +180,11 @@ ISA_FLAGS_neoni8mm   := -march=armv8.6-a+dotprod+i8mm
 isa_of = $(lastword $(subst __, ,$(basename $(notdir $(1)))))
 LIB_CXX := $(filter-out $(PLUGIN_OPENCV_SRC) $(PLUGIN_LIBCAMERA_SRC),\
                         $(sort $(wildcard port/*.cpp light/*.cpp)))
+# The AMX kernel with its tiles emulated is for tests/test_kernels_simd_s8.c only: linked into
+# that test, not into the library, so no program pays for it and `make fuzz` never compiles it
+# (clang with the fuzzer's sanitizers takes minutes over its fully unrolled tiles).
+KERNEL_TEST_C := $(filter %_amxemu__avx512vnni.c,$(LIB_C))
+LIB_C   := $(filter-out $(KERNEL_TEST_C),$(LIB_C))
 APP_C   := $(sort $(wildcard app/*.c))
 TEST_C  := $(sort $(wildcard tests/*.c))
 FUZZ_C  := $(sort $(wildcard tests/fuzz/fuzz_*.c))
@@ -297,6 +312,11 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
 
+$(BUILD)/tests/test_kernels_simd_s8: $(BUILD)/obj/tests/test_kernels_simd_s8.o \
+                                     $(KERNEL_TEST_C:%.c=$(BUILD)/obj/%.o) $(LIB)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $(filter %.o,$^) $(LIB) $(LDLIBS)
+
 $(BUILD)/tests/fuzz/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/replay.o $(LIB)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS)
@@ -319,8 +339,8 @@ $(BUILD)/tools/uvc-gadget: $(BUILD)/obj/tools/camrig/uvc-gadget.o $(LIB)
 # weights into build/ and says so (tools/demo.sh).
 demo:
 	@tools/install-deps.sh
-	@$(MAKE) --no-print-directory all
-	@$(MAKE) --no-print-directory $(SEEDED)
+	@$(SUBMAKE) all
+	@$(SUBMAKE) $(SEEDED)
 	@BUILD=$(BUILD) tools/demo.sh
 
 # On a cross board the programs run under the board's BOARD_RUNNER (qemu-aarch64 with its CPU
@@ -333,7 +353,7 @@ SAN_ENV := $(if $(filter 1,$(SAN)),PL_SAN=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp)
 test:
 	@BOARD=$(BOARD) tools/install-deps.sh
-	@$(MAKE) --no-print-directory all $(SEEDED)
+	@$(SUBMAKE) all $(SEEDED)
 	@$(BOARD_TEST_ENV) $(SAN_ENV) BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' \
 	    TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' tests/run.sh
 
@@ -344,7 +364,7 @@ FUZZ_SECONDS ?= 60
 FUZZ_TARGETS ?= $(FUZZ_C:tests/fuzz/fuzz_%.c=%)
 fuzz:
 	@BOARD=host tools/install-deps.sh
-	@$(MAKE) --no-print-directory FUZZ=1 fuzz-build
+	@$(SUBMAKE) FUZZ=1 fuzz-build
 	@FUZZ_SECONDS=$(FUZZ_SECONDS) tests/fuzz/run.sh $(FUZZ_TARGETS)
 
 fuzz-build: $(FUZZ_BIN)
@@ -353,14 +373,14 @@ fuzz-build: $(FUZZ_BIN)
 # (tools/camrig, ~1.5 + 1 min).
 test-camera:
 	@tools/install-deps.sh
-	@$(MAKE) --no-print-directory all $(SEEDED)
+	@$(SUBMAKE) all $(SEEDED)
 	@BUILD=$(BUILD) TEST_FILTER='^test_(camera|pixfmt|v4l2)' tests/run.sh
 
 # parlight fp32/int8 at 1 and 2 threads against PyTorch and ONNX Runtime (npm) on the same weights:
 # a table on stdout and JSON in build/bench/ (docs/PERFORMANCE.md, "Benchmark"; a few minutes).
 bench:
 	@tools/install-deps.sh
-	@$(MAKE) --no-print-directory $(CLI) build/models/seeded-n3.plm
+	@$(SUBMAKE) $(CLI) build/models/seeded-n3.plm
 	@BUILD=$(BUILD) tools/bench/run.sh
 
 # Raspberry Pi 4, Pi 5 and Jetson Orin frame times predicted here, without a board: qemu counts the
@@ -433,5 +453,5 @@ clean:
 
 -include $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.d) $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.d) \
          $(PLUGIN_GUEST:.o=.d) $(LIB_PIC_OBJ:.o=.d)
--include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d) \
+-include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(KERNEL_TEST_C:%.c=$(BUILD)/obj/%.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d) \
          $(FUZZ_C:%.c=$(BUILD)/obj/%.d) $(BUILD)/obj/tests/fuzz/replay.d
