@@ -65,8 +65,9 @@ san_skip() {
             echo "boots a QEMU guest that runs the build's programs; the guest has no sanitizer runtime" ;;
         test_train_smoke.sh | test_training_path.sh | test_distill.sh)
             echo "PyTorch training end to end; the C commands it calls (crop, estimate, eval) run in the CLI tests" ;;
-        test_export.sh | test_synth_rooms.sh)
-            echo "Python only (tools/export.py, tools/train/synth_rooms.py): nothing sanitized to run" ;;
+        test_export.sh | test_synth_rooms.sh | test_pack_dataset.sh | test_train_device_paths.sh | \
+            test_train_size_bound.sh)
+            echo "Python only (tools/export.py, tools/train/): nothing sanitized to run" ;;
         test_bench_cli.sh)
             echo "times parlight against PyTorch and ONNX Runtime: sanitized timings mean nothing" ;;
     esac
