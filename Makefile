@@ -355,7 +355,7 @@ test:
 	@BOARD=$(BOARD) tools/install-deps.sh
 	@$(SUBMAKE) all $(SEEDED)
 	@$(BOARD_TEST_ENV) $(SAN_ENV) BUILD=$(BUILD) PL_RUNNER='$(BOARD_RUNNER)' \
-	    TEST_FILTER='$(or $(TEST_FILTER),$(BOARD_TESTS))' tests/run.sh
+	    TEST_FILTER='$(or $(value TEST_FILTER),$(BOARD_TESTS))' tests/run.sh
 
 # libFuzzer: builds build/fuzz/fuzz_<target> for every tests/fuzz/fuzz_<target>.c and runs each
 # FUZZ_SECONDS from tests/fuzz/corpus/<target>/ (new inputs go to build/fuzz/corpus/<target>/,

@@ -172,4 +172,5 @@ reap
 echo
 [ $fail -eq 0 ] || echo "failed: ${failed[*]}"
 echo "$pass passed, $fail failed, $skip skipped"
+[ $((pass + fail + skip)) -gt 0 ] || echo "tests/run.sh: no test name matches TEST_FILTER '${TEST_FILTER:-}'" >&2
 [ $fail -eq 0 ] && [ $pass -gt 0 ]
