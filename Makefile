@@ -453,5 +453,6 @@ clean:
 
 -include $(PLUGIN_OPENCV_SRC:%.cpp=$(BUILD)/obj-pic/%.d) $(PLUGIN_LIBCAMERA_SRC:%.cpp=$(BUILD)/obj-pic/%.d) \
          $(PLUGIN_GUEST:.o=.d) $(LIB_PIC_OBJ:.o=.d)
--include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(KERNEL_TEST_C:%.c=$(BUILD)/obj/%.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d) \
-         $(FUZZ_C:%.c=$(BUILD)/obj/%.d) $(BUILD)/obj/tests/fuzz/replay.d
+-include $(LIB_OBJ:.o=.d) $(APP_OBJ:.o=.d) $(TEST_C:tests/%.c=$(BUILD)/obj/tests/%.d) \
+         $(KERNEL_TEST_C:%.c=$(BUILD)/obj/%.d) $(FUZZ_C:%.c=$(BUILD)/obj/%.d) \
+         $(BUILD)/obj/tests/fuzz/replay.d
