@@ -320,6 +320,34 @@ assert float(train.primary_loss(out([up, right, left], 0), gt)) > 0.99
 gt["mask"][:] = 0
 assert float(train.primary_loss(out([up, right, left], 2), gt)) == 0.0
 EOF
+"$PY" - <<'EOF' || fail "rank_loss"
+# the brightness-order loss: small when the predicted light nearest the truth's brighter light is
+# the brighter one, large when the order is reversed, log 2 at a tie, 0 pairs (no loss) when all
+# predicted lights stand for one truth light; it moves energies, never directions
+import math, sys, torch
+sys.path.insert(0, "tools/train")
+import train
+gt = {"dir": torch.tensor([[[0., 1, 0], [1, 0, 0], [0, 0, 1]]]), "size": torch.tensor([[0.1] * 3]),
+      "rgb": torch.tensor([[[1., 1, 1], [50, 50, 50], [5, 5, 5]]]), "mask": torch.ones(1, 3)}
+up, right, front = [0., 1, 0], [1., 0, 0], [0., 0.1, 1]
+def out(dirs, levels):
+    rgb = torch.tensor(levels, dtype=torch.float32)[None, :, None].repeat(1, 1, 3)
+    return {"dir": torch.nn.functional.normalize(torch.tensor([dirs]), dim=-1).requires_grad_(),
+            "size": torch.full((1, 3), 0.1), "rgb": rgb.requires_grad_()}
+good = float(train.rank_loss(out([up, right, front], [1, 50, 5]), gt))
+bad = float(train.rank_loss(out([up, right, front], [50, 1, 5]), gt))
+tie = float(train.rank_loss(out([up, right, front], [7, 7, 7]), gt))
+assert good < 0.1 and bad > 1.0 and abs(tie - math.log(2)) < 1e-5, (good, bad, tie)
+o = out([up, up, up], [1, 50, 5])
+assert float(train.rank_loss(o, gt)) == 0.0
+o = out([up, right, front], [50, 1, 5])
+train.rank_loss(o, gt).backward()
+assert o["dir"].grad is None or float(o["dir"].grad.abs().max()) == 0.0
+assert float(o["rgb"].grad[0, 0].sum()) > 0 and float(o["rgb"].grad[0, 1].sum()) < 0
+gt["mask"][:] = 0
+assert float(train.rank_loss(out([up, right, front], [50, 1, 5]), gt)) == 0.0
+print("rank_loss: order right < log 2 = tie < order wrong; no pairs, no loss; no direction moves")
+EOF
 "${TR[@]}" "${DENSE[@]}" --ckpt-dir "$TMP/ckm" --log "$TMP/log-ckm" --export "$TMP/mm.plm" \
     >/dev/null || fail "dense: finish and export"
 [ "$(stat -c %s "$TMP/mm.plm")" = "$(stat -c %s "$TMP/m.plm")" ] ||

@@ -131,6 +131,53 @@ assert "heads.py" in mh["provenance"]
 EOF
 echo "heads.py (frozen encoder, primary-light loss, z noise, step 2): resumes bit-identically," \
     "changes only fc and heads"
+# block 4 trained with the heads on cached transition3 maps, with the brightness-order term:
+# resumes bit-identically, changes block 4, norm5, fc and heads only, and C runs the result
+HB=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-panos 1 --batch 4
+    --threads 1 --epochs 2 --step2-epochs 1 --w-primary 0 --w-rank 1 --train-block4)
+"${HB[@]}" --out "$TMP/mb.plm" --work "$TMP/hb" >"$TMP/hb.log" 2>&1 ||
+    fail "heads.py --train-block4: $(cat "$TMP/hb.log")"
+grep -q "block-3 maps of" "$TMP/hb.log" || fail "heads.py --train-block4: no block-3 maps cached"
+grep -q " rank " "$TMP/hb.log" || fail "heads.py --w-rank: no rank term logged"
+mkdir -p "$TMP/hb2" && cp "$TMP/hb/v3.pt" "$TMP/hb2/"
+"${HB[@]}" --out "$TMP/mb2.plm" --work "$TMP/hb2" --epochs 1 --step2-epochs 0 >"$TMP/hb2.log" 2>&1 &&
+    "${HB[@]}" --out "$TMP/mb2.plm" --work "$TMP/hb2" --force >>"$TMP/hb2.log" 2>&1 ||
+    fail "heads.py --train-block4 resume: $(cat "$TMP/hb2.log")"
+grep -q "block-3 maps of" "$TMP/hb2.log" && fail "heads.py recomputed the cached block-3 maps"
+cmp -s "$TMP/mb.plm" "$TMP/mb2.plm" || fail "heads.py --train-block4: resumed run differs"
+"${HB[@]}" --out "$TMP/mb3.plm" --work "$TMP/hb" --w-rank 0 >"$TMP/hb3.log" 2>&1 &&
+    fail "heads.py resumed a checkpoint made with another --w-rank"
+"${HB[@]}" --out "$TMP/mb3.plm" --z-noise 0.1 >"$TMP/hb3.log" 2>&1 &&
+    fail "heads.py took --train-block4 with --z-noise"
+grep -q "do not combine" "$TMP/hb3.log" || fail "heads.py: no reason: $(cat "$TMP/hb3.log")"
+"$BUILD/parlight" estimate --model "$TMP/mb.plm" --input "$f" --anchor off >"$TMP/mb.json" \
+    2>"$TMP/mb.err" || fail "parlight estimate on the block-4 model: $(cat "$TMP/mb.err")"
+"$PY" - "$TMP/ma.plm" "$TMP/mb.plm" "$f" "$TMP/mb.json" <<'EOF' ||
+import json, sys
+sys.path.insert(0, "tools")
+import numpy as np, torch, export, golden, plm
+from model import preprocess
+ma, ta, _ = plm.read_plm(sys.argv[1])
+mb, tb, _ = plm.read_plm(sys.argv[2])
+assert list(ta) == list(tb), "tensor order"
+trained = ("fc.", "head_dir.", "head_size.", "head_rgb.", "head_ambient.", "denseblock4.", "norm5.")
+for k in ta:
+    assert np.array_equal(ta[k], tb[k]) != k.startswith(trained), k
+assert "block 4" in mb["provenance"] and "w_rank 1" in mb["provenance"]
+# C against the folded network in float64 on the same frame
+t = {k: torch.from_numpy(np.array(v)).double() for k, v in tb.items()}
+x = preprocess(golden.read_frame(sys.argv[3], int(mb["input_h"]), int(mb["input_w"])),
+               dtype=torch.float64)
+with torch.no_grad():
+    ref = export.folded_forward(t, x, int(mb["n_lights"]))
+got = json.loads(open(sys.argv[4]).readline())
+c = np.array([li["dir"] for li in got["lights"]])
+e = np.linalg.norm(c - ref["dir"][0].numpy()) / np.linalg.norm(ref["dir"][0].numpy())
+assert e < 1e-3, f"C and PyTorch directions differ by {e:.2e}"
+EOF
+    fail "heads.py --train-block4: wrong tensors changed, or C disagrees"
+echo "heads.py --train-block4 --w-rank: resumes bit-identically, changes only block 4, norm5," \
+    "fc and heads; C runs it"
 mkdir -p "$TMP/calib"
 "$BUILD/parlight" crop --hdr "$H/train/comfy_cafe.hdr" --batch 4 --out-dir "$TMP/calib" \
     --format jpg >/dev/null || fail "calibration frames"

@@ -239,24 +239,41 @@ def expected_shapes(n_lights, dist_hidden=64):
     return s
 
 
+def _pre(t, name, v):
+    """Pre-activation BN (folded to scale and shift) + ReLU."""
+    return F.relu(v * t[f"{name}.scale"].view(1, -1, 1, 1) + t[f"{name}.shift"].view(1, -1, 1, 1))
+
+
+def _dense_block(t, bi, v):
+    for li in range(1, BLOCKS[bi - 1] + 1):
+        p = f"denseblock{bi}.denselayer{li}"
+        y = F.relu(F.conv2d(_pre(t, f"{p}.norm1", v), t[f"{p}.conv1.weight"], t[f"{p}.conv1.bias"]))
+        y = F.conv2d(y, t[f"{p}.conv2.weight"], padding=1)
+        v = torch.cat([v, y], 1)
+    return v
+
+
+def folded_lower(t, x):
+    """The DenseNet on folded tensors up to transition3's output [B, 512, H/32, W/32]
+    (tools/train/heads.py --train-block4 caches it and trains what follows)."""
+    v = F.relu(F.conv2d(x, t["conv0.weight"], t["conv0.bias"], stride=2, padding=3))
+    v = F.max_pool2d(v, 3, stride=2, padding=1)
+    for bi in range(1, 4):
+        v = _dense_block(t, bi, v)
+        p = f"transition{bi}"
+        v = F.avg_pool2d(F.conv2d(_pre(t, f"{p}.norm", v), t[f"{p}.conv.weight"]), 2, 2)
+    return v
+
+
+def folded_upper(t, v):
+    """relu(norm5(denseblock4(v))) on folded tensors, v = folded_lower's output."""
+    return _pre(t, "norm5", _dense_block(t, 4, v))
+
+
 def folded_features(t, x):
     """relu(norm5(features(x))) [B, 1024, H/32, W/32] on folded tensors {name: tensor}: the
     DenseNet part of folded_forward (tools/train/heads.py caches it for a frozen encoder)."""
-    def pre(name, v):   # pre-activation BN + ReLU
-        return F.relu(v * t[f"{name}.scale"].view(1, -1, 1, 1) + t[f"{name}.shift"].view(1, -1, 1, 1))
-
-    v = F.relu(F.conv2d(x, t["conv0.weight"], t["conv0.bias"], stride=2, padding=3))
-    v = F.max_pool2d(v, 3, stride=2, padding=1)
-    for bi in range(1, 5):
-        for li in range(1, BLOCKS[bi - 1] + 1):
-            p = f"denseblock{bi}.denselayer{li}"
-            y = F.relu(F.conv2d(pre(f"{p}.norm1", v), t[f"{p}.conv1.weight"], t[f"{p}.conv1.bias"]))
-            y = F.conv2d(y, t[f"{p}.conv2.weight"], padding=1)
-            v = torch.cat([v, y], 1)
-        if bi < 4:
-            p = f"transition{bi}"
-            v = F.avg_pool2d(F.conv2d(pre(f"{p}.norm", v), t[f"{p}.conv.weight"]), 2, 2)
-    return pre("norm5", v)
+    return folded_upper(t, folded_lower(t, x))
 
 
 def folded_forward(t, x, n_lights):

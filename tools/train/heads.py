@@ -6,6 +6,7 @@ first", issue 21).
                          [--val-panos 0] [--epochs 30] [--halve-every 10] [--lr 1e-3]
                          [--batch 16] [--w-primary 1] [--w-r 20] [--w-a 1] [--w-d1 20]
                          [--step2-epochs 0] [--step2-scenes indoor|all] [--z-noise 0]
+                         [--w-rank 0] [--train-block4]
                          [--int8 INT8.plm [--zdump build/tools/zdump]]
                          [--seed 1] [--threads 2] [--work DIR] [--log FILE] [--force]
 
@@ -19,6 +20,19 @@ depend on. The distance head keeps BASE's weights (it reads z and the predicted 
 step-1 term trains it). A linear probe on the frozen z of a network trained without the term
 finds the primary light 12 degrees closer than that network's own heads on held-out rooms
 (MODEL_CARD.md, "Direction first"): the cue is in z, the heads had not been asked for it.
+
+--w-rank W adds W times train.rank_loss to step 1: the lights' brightness order (each predicted
+light stands for its nearest truth light; a logistic loss on the log energies of every pair that
+stands for two different truth lights), the choice pl_lighting_primary makes, without moving a
+direction.
+
+--train-block4 trains DenseNet's block 4 and norm5 (their folded tensors) with the fc and heads in
+step 1: the encoder below it stays frozen, and its output (transition3's maps, 512 x H/32 x W/32
+per crop and mirror: 24 KB a crop at 96 x 128) is computed once and cached in the work folder as
+v3.pt instead of z.pt. Block 4 is about 4% of the network's multiply-adds, so an epoch costs about
+twice a heads-only one (66 s for 4,800 crops on one core here, against 35-50 s), where the whole
+network's step 1 costs 25x that on this CPU. Step 2 then runs on the z of the trained block 4.
+Not with --z-noise or --int8 (both act on a fixed z).
 
 --epochs 0 skips to step 2. --step2-epochs N then runs train.py's step 2 of the shipped recipe
 (--step2-loss render) on the same latents: the fc and the direction head frozen, the size,
@@ -44,13 +58,13 @@ int8 error in z does not depend on the heads, and heads trained on it learn to r
 that error. Gaussian noise (--z-noise) is a weaker stand-in: the int8 error is correlated across
 z's values, independent noise is mostly averaged away by the fc.
 
-OUT is BASE with those five layers replaced: same trunk bytes, same metadata (the intensity
+OUT is BASE with those five layers (and with --train-block4 block 4 and norm5) replaced: same trunk bytes, same metadata (the intensity
 anchor included), the provenance extended. Quantise it as any float model (parlight quantize).
 Only train/ panoramas train (train.load_dataset refuses others); --val-panos N holds out
 train.py's validation panoramas and logs their loss and median primary-light angle per epoch.
 
 Work folder (--work, default OUT.heads/): z.pt (the cached latents, keyed by the trunk's and the
-dataset's sha256 and reused by any run on both), last.pt (checkpoint at each epoch end); rerunning
+dataset's sha256 and reused by any run on both; v3.pt with --train-block4), last.pt (checkpoint at each epoch end); rerunning
 the command resumes from it and ends with the same bytes as an uninterrupted run (the batch order
 and flips of an epoch are a function of --seed and the epoch). Deterministic on the CPU for the
 same --threads. About 35 s an epoch for 4,800 crops on one loaded core here.
@@ -79,9 +93,12 @@ import train  # noqa: E402
 from model import BANDS, ParLightNet  # noqa: E402
 
 TRAINED = ("fc", "head_dir", "head_size", "head_rgb", "head_ambient")
+BLOCK4 = ("denseblock4.", "norm5.")     # what --train-block4 trains as well
 # what must match for last.pt to resume (--epochs may grow: the schedule depends on the epoch only)
 RESUME_KEYS = ("base_trunk_sha256", "data_index_sha256", "val_panos", "halve_every",
-               "lr", "batch", "w_primary", "w_r", "w_a", "w_d1", "seed", "z_noise", "int8_sha256")
+               "lr", "batch", "w_primary", "w_r", "w_a", "w_d1", "seed", "z_noise", "int8_sha256",
+               "w_rank", "train_block4")
+RESUME_DEFAULTS = {"z_noise": 0.0, "int8_sha256": None, "w_rank": 0.0, "train_block4": False}
 
 
 def trunk_sha256(tensors):
@@ -108,6 +125,25 @@ def latents(t, imgs, bs=64, log=None):
             if log and (i // bs) % 20 == 0:
                 log(f"latents {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
     return z
+
+
+def lower_maps(t, imgs, bs=64, log=None):
+    """transition3's output [2, M, 512, H/32, W/32] of every crop (index 0) and of its mirror
+    (index 1): what --train-block4 caches, block 4 and the heads train on it."""
+    m = len(imgs)
+    v = None
+    t0 = time.time()
+    with torch.no_grad():
+        for i in range(0, m, bs):
+            u8 = imgs[torch.arange(i, min(m, i + bs))]
+            for f in (0, 1):
+                y = export.folded_lower(t, train.to_input(u8.flip(2) if f else u8))
+                if v is None:
+                    v = torch.zeros((2, m) + tuple(y.shape[1:]))
+                v[f, i:i + len(u8)] = y
+            if log and (i // bs) % 20 == 0:
+                log(f"block-3 maps {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
+    return v
 
 
 def int8_latents(args, work, digest, m, d, log):
@@ -185,6 +221,10 @@ def main(argv=None):
     ap.add_argument("--w-r", type=float, default=20.0)
     ap.add_argument("--w-a", type=float, default=1.0)
     ap.add_argument("--w-d1", type=float, default=20.0)
+    ap.add_argument("--w-rank", type=float, default=0.0,
+                    help="weight of train.rank_loss (the lights' brightness order) in step 1")
+    ap.add_argument("--train-block4", action="store_true",
+                    help="train DenseNet block 4 (and norm5) with the fc and heads in step 1")
     ap.add_argument("--step2-epochs", type=int, default=0)
     ap.add_argument("--step2-scenes", choices=("indoor", "all"), default="indoor")
     ap.add_argument("--z-noise", type=float, default=0.0,
@@ -215,11 +255,14 @@ def main(argv=None):
             if v < lo:
                 raise ValueError(f"{name} {v}: expected >= {lo}")
         for name, v in (("--w-primary", args.w_primary), ("--w-r", args.w_r),
-                        ("--w-a", args.w_a), ("--w-d1", args.w_d1)):
+                        ("--w-a", args.w_a), ("--w-d1", args.w_d1), ("--w-rank", args.w_rank)):
             if not (v >= 0 and math.isfinite(v)):
                 raise ValueError(f"{name} {v}: expected a weight >= 0")
         if not (0 <= args.z_noise <= 1):
             raise ValueError(f"--z-noise {args.z_noise}: expected 0..1 (relative to z's rms)")
+        if args.train_block4 and (args.z_noise or args.int8):
+            raise ValueError("--train-block4 trains on the float encoder's block-3 maps; "
+                             "--z-noise and --int8 act on a fixed z and do not combine with it")
         if not (args.lr > 0 and math.isfinite(args.lr)):
             raise ValueError(f"--lr {args.lr}: expected a positive number")
         if os.path.lexists(args.out) and not args.force:
@@ -245,11 +288,13 @@ def main(argv=None):
                "halve_every": args.halve_every, "lr": args.lr, "batch": args.batch,
                "w_primary": args.w_primary, "w_r": args.w_r, "w_a": args.w_a, "w_d1": args.w_d1,
                "seed": args.seed, "z_noise": args.z_noise, "int8_sha256": None,
+               "w_rank": args.w_rank, "train_block4": bool(args.train_block4),
                "threads": args.threads,
                "map_width": 64, "radiance": "log",
                "sphere_truth": "lights", "step2_loss": "render", "w_d": 1.0,
                "sphere_metric": "log", "step2_scenes": args.step2_scenes}
-        zpath = os.path.join(work, "z.pt")
+        # the cache: z, or with --train-block4 transition3's maps (v3.pt)
+        zpath = os.path.join(work, "v3.pt" if args.train_block4 else "z.pt")
         key = [cfg["base_trunk_sha256"], digest, list(hw)]
         z = None
         if os.path.exists(zpath):
@@ -257,10 +302,31 @@ def main(argv=None):
             if zc.get("key") == key:
                 z = zc["z"]
         if z is None:
-            log(f"latents of {len(imgs)} crops and their mirrors through {args.model}'s encoder")
-            z = latents(t, imgs, log=log)
+            if args.train_block4:
+                log(f"block-3 maps of {len(imgs)} crops and their mirrors through {args.model}")
+                z = lower_maps(t, imgs, log=log)
+            else:
+                log(f"latents of {len(imgs)} crops and their mirrors through {args.model}'s "
+                    "encoder")
+                z = latents(t, imgs, log=log)
             torch.save({"key": key, "z": z}, zpath + ".tmp")
             os.replace(zpath + ".tmp", zpath)
+        v3 = None
+        b4 = {}
+        if args.train_block4:      # z is computed from v3 by the block 4 being trained
+            v3, z = z, None
+            b4 = {k: torch.nn.Parameter(v.clone()) for k, v in t.items() if k.startswith(BLOCK4)}
+
+        def z_of(v):
+            """z of block-3 maps v through the current block 4."""
+            return F.adaptive_avg_pool2d(export.folded_upper(b4, v), (BANDS, 1)).flatten(1)
+
+        def all_z():
+            """z [2, M, d] of every crop and mirror through the current block 4."""
+            with torch.no_grad():
+                return torch.stack([torch.cat([z_of(v3[f][j]) for j in
+                                               torch.arange(v3.shape[1]).split(256)])
+                                    for f in (0, 1)])
 
         z8 = None
         if args.int8:
@@ -272,17 +338,21 @@ def main(argv=None):
             lin.weight.data.copy_(t[f"{name}.weight"])
             lin.bias.data.copy_(t[f"{name}.bias"])
         params = [p for name in TRAINED for p in net.get_submodule(name).parameters()]
+        params += list(b4.values())
         opt = torch.optim.Adam(params, lr=args.lr, betas=(0.9, 0.999))
         epoch, epoch2 = 0, 0
         last = os.path.join(work, "last.pt")
         if os.path.exists(last):
             ck = torch.load(last, weights_only=False)
-            old = {"z_noise": 0.0, "int8_sha256": None, **ck["config"]}   # older checkpoints
+            old = {**RESUME_DEFAULTS, **ck["config"]}   # older checkpoints
             diff = [k for k in RESUME_KEYS if old.get(k) != cfg[k]]
             if diff:
                 raise ValueError(f"{last}: made with another configuration ({', '.join(diff)} "
                                  "differ); use another --work folder")
             net.load_state_dict(ck["net"])
+            with torch.no_grad():
+                for k, p in b4.items():
+                    p.copy_(ck["block4"][k])
             epoch, epoch2 = ck["epoch"], ck.get("step2_epoch", 0)
             if epoch2 == 0:
                 opt.load_state_dict(ck["optimizer"])
@@ -304,7 +374,7 @@ def main(argv=None):
         tr = torch.nonzero(~val).flatten()
         va = torch.nonzero(val).flatten()
         indoor = ~train.crop_outdoor(args.data)
-        z_sd = args.z_noise * float(z[0][tr].square().mean().sqrt()) if len(tr) else 0.0
+        z_sd = args.z_noise * float(z[0][tr].square().mean().sqrt()) if args.z_noise else 0.0
 
         def noisy(zb, gen):
             """zb plus the --z-noise Gaussian (a function of the generator's state)."""
@@ -323,7 +393,7 @@ def main(argv=None):
                 return ""
             with torch.no_grad():
                 g = train.take(gt, va)
-                o = forward(net, z[0][va])
+                o = forward(net, z[0][va] if v3 is None else z_of(v3[0][va]))
                 loss = float(train.step1_loss(o, g, udirs, cfg, render, gms[0][va])[0] if step == 1
                              else train.step2_loss(o, g, cfg, render)[0])
                 a, has = primary_angles(o, g)
@@ -361,13 +431,17 @@ def main(argv=None):
                     + f" ({time.time() - t0:.0f} s){validate(step)}")
                 state = {"epoch": done} if step == 1 else {"epoch": epoch, "step2_epoch": done}
                 torch.save({"config": cfg, "net": net.state_dict(), "optimizer": opt.state_dict(),
-                            **state}, last + ".tmp")
+                            "block4": {k: p.detach() for k, p in b4.items()}, **state},
+                           last + ".tmp")
                 os.replace(last + ".tmp", last)
             return done
 
         def z_rows(j, fl, gen):
             """The batch's latents: mirrored where fl, the int8 ones for half of the crops
-            (--int8), plus the --z-noise noise."""
+            (--int8), plus the --z-noise noise; with --train-block4, z of the block-3 maps
+            through the block 4 being trained."""
+            if v3 is not None:
+                return z_of(torch.where(fl[:, None, None, None], v3[1][j], v3[0][j]))
             zb = torch.where(fl[:, None], z[1][j], z[0][j])
             if z8 is not None:
                 q = torch.rand(len(j), generator=gen) < 0.5
@@ -381,6 +455,8 @@ def main(argv=None):
             return train.step1_loss(o, g, udirs, cfg, render, gm)
 
         epoch = run_epochs(1, opt, tr, epoch, args.epochs, step1_batch)
+        if v3 is not None:         # block 4 is final: step 2 reads its z
+            z, v3 = all_z(), None
 
         # step 2 (train.py's, --step2-loss render): fc and directions frozen
         tr2 = tr[indoor[tr]] if args.step2_scenes == "indoor" else tr
@@ -410,13 +486,18 @@ def main(argv=None):
             lin = net.get_submodule(name)
             out_t[f"{name}.weight"] = lin.weight.detach().numpy().astype(np.float32)
             out_t[f"{name}.bias"] = lin.bias.detach().numpy().astype(np.float32)
+        for k, p in b4.items():
+            out_t[k] = p.detach().numpy().astype(np.float32)
         meta = dict(meta)
-        meta["provenance"] = (meta.get("provenance", "") + f"; fc and heads retrained by "
-                              f"tools/train/heads.py on the frozen encoder: data index sha256 "
+        meta["provenance"] = (meta.get("provenance", "") + "; fc and heads"
+                              + (" and DenseNet block 4" if args.train_block4 else "")
+                              + " retrained by tools/train/heads.py on the frozen encoder: data "
+                              f"index sha256 "
                               f"{digest[:16]}, {len(tr)} crops, {args.epochs} epochs, w_primary "
                               f"{args.w_primary}, val_panos {args.val_panos}, step 2 "
                               f"{args.step2_epochs} epochs on {args.step2_scenes} crops"
                               + (f", z noise {args.z_noise}" if args.z_noise else "")
+                              + (f", w_rank {args.w_rank}" if args.w_rank else "")
                               + (f", half on the latents of int8 sha256 {cfg['int8_sha256'][:16]}"
                                  if z8 is not None else ""))
         size = plm.write_plm(args.out, meta, [(k, np.asarray(v, np.float32))

@@ -8,7 +8,7 @@
                          [--w-d1 0] [--step2-loss paper|render|both] [--w-d 1]
                          [--step2-from STEP1.pt] [--val-panos 4] [--train-scenes all|indoor]
                          [--sphere-metric log|relative] [--z-dropout 0] [--erase 0] [--ema 0]
-                         [--w-map 0] [--sphere-truth lights|map] [--w-primary 0]
+                         [--w-map 0] [--sphere-truth lights|map] [--w-primary 0] [--w-rank 0]
                          [--step1-max-size 0] [--w-src 0] [--device cpu|cuda] [--channels-last]
                          [--stream]
     tools/train/train.py --export-only CKPT OUT.plm [--force]
@@ -156,12 +156,13 @@ COS45 = math.cos(math.radians(45.0))
 RESUME_KEYS = ("data_index_sha256", "input", "n_lights", "batch", "lr", "halve_every", "seed",
                "map_width", "radiance", "w_r", "w_a", "val_panos", "step1_epochs",
                "step2_loss", "w_d", "w_d1", "train_scenes", "sphere_metric", "z_dropout",
-               "erase", "ema", "w_map", "sphere_truth", "w_primary", "step1_max_size", "w_src")
+               "erase", "ema", "w_map", "sphere_truth", "w_primary", "step1_max_size", "w_src",
+               "w_rank")
 # what a checkpoint made before a key existed was trained with
 RESUME_DEFAULTS = {"step2_loss": "paper", "w_d": 1.0, "w_d1": 0.0, "train_scenes": "all",
                    "sphere_metric": "log", "z_dropout": 0.0, "erase": 0.0,
                    "ema": 0.0, "w_map": 0.0, "sphere_truth": "lights", "w_primary": 0.0,
-                   "step1_max_size": 0.0, "w_src": 0.0}
+                   "step1_max_size": 0.0, "w_src": 0.0, "w_rank": 0.0}
 AUX_PREFIX = ("aux_map.", "aux_src.")   # the auxiliary heads' tensors: trained, never exported
 
 
@@ -508,7 +509,8 @@ def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
     """w_r * L2(map(pred), map(gt)) + w_a * L2(ambient) (both after the radiance transform), plus
     w_d1 * diffuse_loss when --w-d1 > 0 (not in the paper), plus w_map * the auxiliary map
     head's loss when --w-map > 0, plus w_src * the source head's source_loss when --w-src > 0,
-    plus w_primary * primary_loss when --w-primary > 0; every term
+    plus w_primary * primary_loss when --w-primary > 0, plus w_rank * rank_loss when
+    --w-rank > 0; every term
     sees the lights' sizes bounded by bound_size with --step1-max-size. render = (udirs, op, op
     of the crops' radiance maps or None, their rows' solid-angle weights or None); gm:
     gt_map(gt, udirs, cfg) when the caller has it already. parts: the terms as floats, or with
@@ -542,6 +544,10 @@ def step1_loss(out, gt, udirs, cfg, render=None, gm=None, sync=True):
         lp = primary_loss(out, gt)
         total = total + cfg["w_primary"] * lp
         parts["primary"] = num(lp)
+    if cfg.get("w_rank", 0.0) > 0:
+        lk = rank_loss(out, gt)
+        total = total + cfg["w_rank"] * lk
+        parts["rank"] = num(lk)
     return total, parts
 
 
@@ -575,6 +581,26 @@ def primary_loss(out, gt):
     d, has = gt_primary(gt)
     err = ((1 - (out["dir"].float() * d[:, None, :]).sum(-1)) * w).sum(1)
     return (err * has).sum() / has.sum().clamp_min(1)
+
+
+def rank_loss(out, gt):
+    """Which light is brighter (not in the paper; --w-rank): a pairwise ranking loss (RankNet's
+    logistic loss) on the predicted lights' log energies. Each predicted light stands for the
+    ground-truth light nearest it by angle (the assignment is not differentiated: the term moves
+    no direction); for every pair of predicted lights standing for two different truth lights, the
+    one whose truth light has the larger energy should have the larger energy too:
+    softplus(log e_lo - log e_hi), mean over such pairs of the batch (0 if there are none). It
+    asks for the order pl_lighting_primary reads, and nothing of the size of the gap."""
+    le = torch.log(light_energy(out["rgb"].float(), out["size"].float()).clamp_min(1e-30))
+    ge = light_energy(gt["rgb"], gt["size"]) * gt["mask"]
+    with torch.no_grad():
+        idx, _ = match(out["dir"].float(), gt)                    # [B, N] truth light of each
+        e = torch.gather(ge, 1, idx)                              # its truth energy
+        hi = e[:, :, None] > e[:, None, :]                        # [B, N, N]: i's truth brighter
+        pair = hi & (idx[:, :, None] != idx[:, None, :])
+    loss = F.softplus(le[:, None, :] - le[:, :, None])           # [b, i, j] = sp(le_j - le_i)
+    n = pair.sum()
+    return (loss * pair).sum() / n.clamp_min(1)
 
 
 def match(pred_dir, gt):
@@ -1052,6 +1078,9 @@ def main(argv=None):
                     "(needs a dataset made with make_dataset.py --gt-map; 0: off)")
     ap.add_argument("--w-primary", type=float, default=0.0, metavar="W",
                     help="weight of the primary light's angular loss in step 1 (primary_loss)")
+    ap.add_argument("--w-rank", type=float, default=0.0, metavar="W",
+                    help="weight of the lights' pairwise brightness-order loss in step 1 "
+                         "(rank_loss)")
     ap.add_argument("--step1-max-size", type=float, default=0.0, metavar="SR",
                     help="step 1: bound the lights' solid angles the losses see by SR steradians "
                     "(SR tanh(size / SR); 0: off)")
@@ -1112,7 +1141,7 @@ def main(argv=None):
         if not 0.0 <= args.ema < 1.0:
             raise ValueError(f"--ema {args.ema}: expected a decay in [0, 1)")
         for name, v in (("--w-map", args.w_map), ("--w-primary", args.w_primary),
-                        ("--w-src", args.w_src)):
+                        ("--w-src", args.w_src), ("--w-rank", args.w_rank)):
             if not (0.0 <= v and math.isfinite(v)):
                 raise ValueError(f"{name} {v}: expected a weight >= 0")
         if not (0.0 <= args.step1_max_size <= 4 * math.pi):
@@ -1157,7 +1186,7 @@ def main(argv=None):
                "z_dropout": args.z_dropout, "erase": args.erase, "ema": args.ema, "bf16": args.bf16,
                "w_map": args.w_map, "sphere_truth": args.sphere_truth,
                "w_primary": args.w_primary, "step1_max_size": args.step1_max_size,
-               "w_src": args.w_src,
+               "w_src": args.w_src, "w_rank": args.w_rank,
                "gt_map_width": int(gt["map"].shape[2]) if need_map else 0,
                "max_steps": args.max_steps, "ckpt_minutes": args.ckpt_minutes,
                "threads": [max(1, args.threads)], "device": args.device,
