@@ -131,10 +131,12 @@ assert "heads.py" in mh["provenance"]
 EOF
 echo "heads.py (frozen encoder, primary-light loss, z noise, step 2): resumes bit-identically," \
     "changes only fc and heads"
-# block 4 trained with the heads on cached transition3 maps, with the brightness-order term:
+# block 4 trained with the heads on cached transition3 maps, with the brightness-order term and
+# weight decay:
 # resumes bit-identically, changes block 4, norm5, fc and heads only, and C runs the result
 HB=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-panos 1 --batch 4
-    --threads 1 --epochs 2 --step2-epochs 1 --w-primary 0 --w-rank 1 --train-block4)
+    --threads 1 --epochs 2 --step2-epochs 1 --w-primary 0 --w-rank 1 --train-block4
+    --weight-decay 0.1)
 "${HB[@]}" --out "$TMP/mb.plm" --work "$TMP/hb" >"$TMP/hb.log" 2>&1 ||
     fail "heads.py --train-block4: $(cat "$TMP/hb.log")"
 grep -q "block-3 maps of" "$TMP/hb.log" || fail "heads.py --train-block4: no block-3 maps cached"
@@ -164,6 +166,7 @@ trained = ("fc.", "head_dir.", "head_size.", "head_rgb.", "head_ambient.", "dens
 for k in ta:
     assert np.array_equal(ta[k], tb[k]) != k.startswith(trained), k
 assert "block 4" in mb["provenance"] and "w_rank 1" in mb["provenance"]
+assert "weight decay 0.1" in mb["provenance"]
 # C against the folded network in float64 on the same frame
 t = {k: torch.from_numpy(np.array(v)).double() for k, v in tb.items()}
 x = preprocess(golden.read_frame(sys.argv[3], int(mb["input_h"]), int(mb["input_w"])),
@@ -176,8 +179,8 @@ e = np.linalg.norm(c - ref["dir"][0].numpy()) / np.linalg.norm(ref["dir"][0].num
 assert e < 1e-3, f"C and PyTorch directions differ by {e:.2e}"
 EOF
     fail "heads.py --train-block4: wrong tensors changed, or C disagrees"
-echo "heads.py --train-block4 --w-rank: resumes bit-identically, changes only block 4, norm5," \
-    "fc and heads; C runs it"
+echo "heads.py --train-block4 --w-rank --weight-decay: resumes bit-identically, changes only" \
+    "block 4, norm5, fc and heads; C runs it"
 mkdir -p "$TMP/calib"
 "$BUILD/parlight" crop --hdr "$H/train/comfy_cafe.hdr" --batch 4 --out-dir "$TMP/calib" \
     --format jpg >/dev/null || fail "calibration frames"

@@ -6,7 +6,7 @@ first", issue 21).
                          [--val-panos 0] [--epochs 30] [--halve-every 10] [--lr 1e-3]
                          [--batch 16] [--w-primary 1] [--w-r 20] [--w-a 1] [--w-d1 20]
                          [--step2-epochs 0] [--step2-scenes indoor|all] [--z-noise 0]
-                         [--w-rank 0] [--train-block4]
+                         [--w-rank 0] [--train-block4] [--weight-decay 0]
                          [--int8 INT8.plm [--zdump build/tools/zdump]]
                          [--seed 1] [--threads 2] [--work DIR] [--log FILE] [--force]
 
@@ -34,6 +34,10 @@ twice a heads-only one (66 s for 4,800 crops on one core here, against 35-50 s),
 network's step 1 costs 25x that on this CPU. Step 2 then runs on the z of the trained block 4.
 Not with --z-noise or --int8 (both act on a fixed z).
 
+--weight-decay D trains both steps with AdamW's decoupled weight decay D (each step shrinks the
+trained weights by lr x D) instead of Adam: heads of less effective capacity, which the ridge
+baseline's showing (a few hundred parameters carry direction across rooms) asks to try.
+
 --epochs 0 skips to step 2. --step2-epochs N then runs train.py's step 2 of the shipped recipe
 (--step2-loss render) on the same latents: the fc and the direction head frozen, the size,
 colour and ambient heads trained on the diffuse sphere's L2 and the ambient's, on the indoor
@@ -58,16 +62,18 @@ int8 error in z does not depend on the heads, and heads trained on it learn to r
 that error. Gaussian noise (--z-noise) is a weaker stand-in: the int8 error is correlated across
 z's values, independent noise is mostly averaged away by the fc.
 
-OUT is BASE with those five layers (and with --train-block4 block 4 and norm5) replaced: same trunk bytes, same metadata (the intensity
-anchor included), the provenance extended. Quantise it as any float model (parlight quantize).
+OUT is BASE with those five layers replaced (with --train-block4, block 4 and norm5 too): the rest
+of the trunk's bytes and the metadata (the intensity anchor included) the same, the provenance
+extended. Quantise it as any float model (parlight quantize).
 Only train/ panoramas train (train.load_dataset refuses others); --val-panos N holds out
 train.py's validation panoramas and logs their loss and median primary-light angle per epoch.
 
 Work folder (--work, default OUT.heads/): z.pt (the cached latents, keyed by the trunk's and the
-dataset's sha256 and reused by any run on both; v3.pt with --train-block4), last.pt (checkpoint at each epoch end); rerunning
-the command resumes from it and ends with the same bytes as an uninterrupted run (the batch order
-and flips of an epoch are a function of --seed and the epoch). Deterministic on the CPU for the
-same --threads. About 35 s an epoch for 4,800 crops on one loaded core here.
+dataset's sha256 and reused by any run on both; v3.pt with --train-block4), last.pt (checkpoint
+at each epoch end); rerunning the command resumes from it and ends with the same bytes as an
+uninterrupted run (the batch order and flips of an epoch are a function of --seed and the epoch).
+Deterministic on the CPU for the same --threads. About 35 s an epoch for 4,800 crops on one loaded
+core here.
 """
 
 import argparse
@@ -97,8 +103,9 @@ BLOCK4 = ("denseblock4.", "norm5.")     # what --train-block4 trains as well
 # what must match for last.pt to resume (--epochs may grow: the schedule depends on the epoch only)
 RESUME_KEYS = ("base_trunk_sha256", "data_index_sha256", "val_panos", "halve_every",
                "lr", "batch", "w_primary", "w_r", "w_a", "w_d1", "seed", "z_noise", "int8_sha256",
-               "w_rank", "train_block4")
-RESUME_DEFAULTS = {"z_noise": 0.0, "int8_sha256": None, "w_rank": 0.0, "train_block4": False}
+               "w_rank", "train_block4", "weight_decay")
+RESUME_DEFAULTS = {"z_noise": 0.0, "int8_sha256": None, "w_rank": 0.0, "train_block4": False,
+                   "weight_decay": 0.0}
 
 
 def trunk_sha256(tensors):
@@ -225,6 +232,8 @@ def main(argv=None):
                     help="weight of train.rank_loss (the lights' brightness order) in step 1")
     ap.add_argument("--train-block4", action="store_true",
                     help="train DenseNet block 4 (and norm5) with the fc and heads in step 1")
+    ap.add_argument("--weight-decay", type=float, default=0.0,
+                    help="AdamW's decoupled weight decay in both steps (0: Adam, no decay)")
     ap.add_argument("--step2-epochs", type=int, default=0)
     ap.add_argument("--step2-scenes", choices=("indoor", "all"), default="indoor")
     ap.add_argument("--z-noise", type=float, default=0.0,
@@ -255,7 +264,8 @@ def main(argv=None):
             if v < lo:
                 raise ValueError(f"{name} {v}: expected >= {lo}")
         for name, v in (("--w-primary", args.w_primary), ("--w-r", args.w_r),
-                        ("--w-a", args.w_a), ("--w-d1", args.w_d1), ("--w-rank", args.w_rank)):
+                        ("--w-a", args.w_a), ("--w-d1", args.w_d1), ("--w-rank", args.w_rank),
+                        ("--weight-decay", args.weight_decay)):
             if not (v >= 0 and math.isfinite(v)):
                 raise ValueError(f"{name} {v}: expected a weight >= 0")
         if not (0 <= args.z_noise <= 1):
@@ -289,6 +299,7 @@ def main(argv=None):
                "w_primary": args.w_primary, "w_r": args.w_r, "w_a": args.w_a, "w_d1": args.w_d1,
                "seed": args.seed, "z_noise": args.z_noise, "int8_sha256": None,
                "w_rank": args.w_rank, "train_block4": bool(args.train_block4),
+               "weight_decay": args.weight_decay,
                "threads": args.threads,
                "map_width": 64, "radiance": "log",
                "sphere_truth": "lights", "step2_loss": "render", "w_d": 1.0,
@@ -339,7 +350,13 @@ def main(argv=None):
             lin.bias.data.copy_(t[f"{name}.bias"])
         params = [p for name in TRAINED for p in net.get_submodule(name).parameters()]
         params += list(b4.values())
-        opt = torch.optim.Adam(params, lr=args.lr, betas=(0.9, 0.999))
+        def optimiser(ps):
+            if args.weight_decay > 0:
+                return torch.optim.AdamW(ps, lr=args.lr, betas=(0.9, 0.999),
+                                         weight_decay=args.weight_decay)
+            return torch.optim.Adam(ps, lr=args.lr, betas=(0.9, 0.999))
+
+        opt = optimiser(params)
         epoch, epoch2 = 0, 0
         last = os.path.join(work, "last.pt")
         if os.path.exists(last):
@@ -465,7 +482,7 @@ def main(argv=None):
                              f"batch of {args.batch}")
         params2 = [p for name in ("head_size", "head_rgb", "head_ambient")
                    for p in net.get_submodule(name).parameters()]
-        opt2 = torch.optim.Adam(params2, lr=args.lr, betas=(0.9, 0.999))
+        opt2 = optimiser(params2)
         if epoch2 and os.path.exists(last):
             opt2.load_state_dict(torch.load(last, weights_only=False)["optimizer"])
 
@@ -491,13 +508,16 @@ def main(argv=None):
         meta = dict(meta)
         meta["provenance"] = (meta.get("provenance", "") + "; fc and heads"
                               + (" and DenseNet block 4" if args.train_block4 else "")
-                              + " retrained by tools/train/heads.py on the frozen encoder: data "
-                              f"index sha256 "
-                              f"{digest[:16]}, {len(tr)} crops, {args.epochs} epochs, w_primary "
-                              f"{args.w_primary}, val_panos {args.val_panos}, step 2 "
-                              f"{args.step2_epochs} epochs on {args.step2_scenes} crops"
+                              + " retrained by tools/train/heads.py on the frozen encoder"
+                              + (" below it" if args.train_block4 else "")
+                              + f": data index sha256 {digest[:16]}, {len(tr)} crops, "
+                              f"{args.epochs} epochs, w_primary {args.w_primary}, val_panos "
+                              f"{args.val_panos}, step 2 {args.step2_epochs} epochs on "
+                              f"{args.step2_scenes} crops"
                               + (f", z noise {args.z_noise}" if args.z_noise else "")
                               + (f", w_rank {args.w_rank}" if args.w_rank else "")
+                              + (f", weight decay {args.weight_decay}" if args.weight_decay
+                                 else "")
                               + (f", half on the latents of int8 sha256 {cfg['int8_sha256'][:16]}"
                                  if z8 is not None else ""))
         size = plm.write_plm(args.out, meta, [(k, np.asarray(v, np.float32))
