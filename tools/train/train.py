@@ -76,6 +76,11 @@ MODEL_CARD.md, "Direction first"; through the whole network, --w-primary 1 cut e
 off by more than 90 deg from 24-25 to 15 in two pairs of runs but not the median angle, and
 kept int8 within its targets in one of the two: "Direction first through the whole network",
 "The direction term, replicated").
+--w-rank W adds W times rank_loss in step 1: a pairwise (RankNet) loss asking that of two
+predicted lights standing for two different truth lights (each for its nearest) the one whose
+truth light is brighter be brighter; it moves no direction. Measured only on M3's trunk with
+block 4 trainable (heads.py --train-block4 --w-rank 1: MODEL_CARD.md, "Block 4 and a
+brightness-order term"), where it learned little of the order; untried in a whole step 1.
 Small lights in step 1 (not in the paper; off by default): --step1-max-size S renders step 1's
 lights with their solid angle bounded smoothly by S steradians (S tanh(s / S), the loss's view
 only; step 2 fits the size head unbounded, with the directions frozen). Without it the heads
