@@ -62,7 +62,8 @@ boot() {
     rc=$?
     cat "$T/log.txt"
     [ $rc -eq 0 ] || [ $(($(date +%s) - b0)) -lt $left ] ||
-        fail "the VM ran into its ${left} s limit (the machine is too busy for the rig's guest; alone it takes 1-5 min)"
+        fail "the VM ran into its ${left} s limit (the machine is too busy for the rig's" \
+            "guest; alone it takes 1-5 min)"
 }
 # device_broke: the failed boot is the emulated webcam's, not parlight's: the device's log shows
 # its control-request race (gadgetfs on dummy_hcd has no delayed status stage: docs/CAMERAS.md,

@@ -99,13 +99,22 @@ HD=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-pa
     fail "heads.py: $(cat "$TMP/h.log")"
 grep -q "primary angle median" "$TMP/h.log" || fail "heads.py: no validation angle logged"
 grep -q "step 2 epoch 1/1" "$TMP/h.log" || fail "heads.py: no step-2 epoch logged"
-mkdir -p "$TMP/hw2" && cp "$TMP/hw/z.pt" "$TMP/hw2/"
-"${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --epochs 1 --step2-epochs 0 >"$TMP/h2.log" 2>&1 &&
-    "${HD[@]}" --out "$TMP/mh2.plm" --work "$TMP/hw2" --force >>"$TMP/h2.log" 2>&1 ||
-    fail "heads.py resume: $(cat "$TMP/h2.log")"
-grep -q "latents of" "$TMP/h2.log" && fail "heads.py recomputed the cached latents"
-grep -q "resumed" "$TMP/h2.log" || fail "heads.py did not resume"
-cmp -s "$TMP/mh.plm" "$TMP/mh2.plm" || fail "heads.py: resumed run differs from one run"
+# heads_resumes CACHE WORK ONE_RUN CMD...: CMD stopped after step-1 epoch 1 and rerun, in a new
+# work folder that holds only WORK's cached CACHE (z.pt or v3.pt), resumes without recomputing
+# the cache and ends with the bytes of ONE_RUN, the .plm of one uninterrupted run
+heads_resumes() {
+    local cache=$1 work=$2 want=$3
+    shift 3
+    mkdir -p "$work.r" && cp "$work/$cache" "$work.r/"
+    "$@" --out "$want.r" --work "$work.r" --epochs 1 --step2-epochs 0 >"$work.r.log" 2>&1 &&
+        "$@" --out "$want.r" --work "$work.r" --force >>"$work.r.log" 2>&1 ||
+        fail "heads.py resume ($cache): $(cat "$work.r.log")"
+    grep -q "crops and their mirrors through" "$work.r.log" &&
+        fail "heads.py recomputed the cached $cache"
+    grep -q "resumed" "$work.r.log" || fail "heads.py did not resume ($cache)"
+    cmp -s "$want" "$want.r" || fail "heads.py: resumed run differs from one run ($cache)"
+}
+heads_resumes z.pt "$TMP/hw" "$TMP/mh.plm" "${HD[@]}"
 "${HD[@]}" --out "$TMP/mh.plm" --work "$TMP/hw" >"$TMP/h3.log" 2>&1 &&
     fail "heads.py replaced an existing model without --force"
 grep -q "use --force" "$TMP/h3.log" || fail "heads.py: no reason: $(cat "$TMP/h3.log")"
@@ -132,8 +141,8 @@ EOF
 echo "heads.py (frozen encoder, primary-light loss, z noise, step 2): resumes bit-identically," \
     "changes only fc and heads"
 # block 4 trained with the heads on cached transition3 maps, with the brightness-order term and
-# weight decay:
-# resumes bit-identically, changes block 4, norm5, fc and heads only, and C runs the result
+# weight decay: resumes bit-identically, changes block 4, norm5, fc and heads only, and C runs
+# the result
 HB=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-panos 1 --batch 4
     --threads 1 --epochs 2 --step2-epochs 1 --w-primary 0 --w-rank 1 --train-block4
     --weight-decay 0.1)
@@ -141,12 +150,7 @@ HB=("$PY" tools/train/heads.py --model "$TMP/ma.plm" --data "$TMP/data" --val-pa
     fail "heads.py --train-block4: $(cat "$TMP/hb.log")"
 grep -q "block-3 maps of" "$TMP/hb.log" || fail "heads.py --train-block4: no block-3 maps cached"
 grep -q " rank " "$TMP/hb.log" || fail "heads.py --w-rank: no rank term logged"
-mkdir -p "$TMP/hb2" && cp "$TMP/hb/v3.pt" "$TMP/hb2/"
-"${HB[@]}" --out "$TMP/mb2.plm" --work "$TMP/hb2" --epochs 1 --step2-epochs 0 >"$TMP/hb2.log" 2>&1 &&
-    "${HB[@]}" --out "$TMP/mb2.plm" --work "$TMP/hb2" --force >>"$TMP/hb2.log" 2>&1 ||
-    fail "heads.py --train-block4 resume: $(cat "$TMP/hb2.log")"
-grep -q "block-3 maps of" "$TMP/hb2.log" && fail "heads.py recomputed the cached block-3 maps"
-cmp -s "$TMP/mb.plm" "$TMP/mb2.plm" || fail "heads.py --train-block4: resumed run differs"
+heads_resumes v3.pt "$TMP/hb" "$TMP/mb.plm" "${HB[@]}"
 "${HB[@]}" --out "$TMP/mb3.plm" --work "$TMP/hb" --w-rank 0 >"$TMP/hb3.log" 2>&1 &&
     fail "heads.py resumed a checkpoint made with another --w-rank"
 "${HB[@]}" --out "$TMP/mb3.plm" --z-noise 0.1 >"$TMP/hb3.log" 2>&1 &&

@@ -117,40 +117,35 @@ def trunk_sha256(tensors):
     return h.hexdigest()
 
 
-def latents(t, imgs, bs=64, log=None):
-    """z [2, M, 1024 * BANDS] of every crop (index 0) and of its mirror (index 1)."""
+def per_crop(fn, imgs, what, bs=64, log=None):
+    """fn(x) [B, ...] of every crop (index 0) and of its mirror (index 1): [2, M, ...]."""
     m = len(imgs)
-    z = torch.zeros(2, m, 1024 * BANDS)
+    out = None
     t0 = time.time()
     with torch.no_grad():
         for i in range(0, m, bs):
             u8 = imgs[torch.arange(i, min(m, i + bs))]
             for f in (0, 1):
-                x = train.to_input(u8.flip(2) if f else u8)
-                z[f, i:i + len(u8)] = F.adaptive_avg_pool2d(export.folded_features(t, x),
-                                                            (BANDS, 1)).flatten(1)
+                y = fn(train.to_input(u8.flip(2) if f else u8))
+                if out is None:
+                    out = torch.zeros((2, m) + tuple(y.shape[1:]))
+                out[f, i:i + len(u8)] = y
             if log and (i // bs) % 20 == 0:
-                log(f"latents {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
-    return z
+                log(f"{what} {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
+    return out
 
 
-def lower_maps(t, imgs, bs=64, log=None):
-    """transition3's output [2, M, 512, H/32, W/32] of every crop (index 0) and of its mirror
-    (index 1): what --train-block4 caches, block 4 and the heads train on it."""
-    m = len(imgs)
-    v = None
-    t0 = time.time()
-    with torch.no_grad():
-        for i in range(0, m, bs):
-            u8 = imgs[torch.arange(i, min(m, i + bs))]
-            for f in (0, 1):
-                y = export.folded_lower(t, train.to_input(u8.flip(2) if f else u8))
-                if v is None:
-                    v = torch.zeros((2, m) + tuple(y.shape[1:]))
-                v[f, i:i + len(u8)] = y
-            if log and (i // bs) % 20 == 0:
-                log(f"block-3 maps {i + len(u8)}/{m} ({time.time() - t0:.0f} s)")
-    return v
+def latents(t, imgs, log=None):
+    """z [2, M, 1024 * BANDS] of every crop and of its mirror."""
+    return per_crop(lambda x: F.adaptive_avg_pool2d(export.folded_features(t, x),
+                                                    (BANDS, 1)).flatten(1), imgs, "latents",
+                    log=log)
+
+
+def lower_maps(t, imgs, log=None):
+    """transition3's output [2, M, 512, H/32, W/32] of every crop and of its mirror: what
+    --train-block4 caches, block 4 and the heads train on it."""
+    return per_crop(lambda x: export.folded_lower(t, x), imgs, "block-3 maps", log=log)
 
 
 def int8_latents(args, work, digest, m, d, log):
