@@ -369,13 +369,15 @@ test:
 
 # libFuzzer: builds build/fuzz/fuzz_<target> for every tests/fuzz/fuzz_<target>.c and runs each
 # FUZZ_SECONDS from tests/fuzz/corpus/<target>/ (new inputs go to build/fuzz/corpus/<target>/,
-# crashes to build/fuzz/artifacts/<target>/; tests/fuzz/run.sh). FUZZ_TARGETS narrows the list.
+# crashes to build/fuzz/artifacts/<target>/; tests/fuzz/run.sh), FUZZ_JOBS targets at once (one
+# core each; default JOBS). FUZZ_TARGETS narrows the list.
 FUZZ_SECONDS ?= 60
+FUZZ_JOBS ?= $(JOBS)
 FUZZ_TARGETS ?= $(FUZZ_C:tests/fuzz/fuzz_%.c=%)
 fuzz:
 	@BOARD=host tools/install-deps.sh
 	@$(SUBMAKE) FUZZ=1 fuzz-build
-	@FUZZ_SECONDS=$(FUZZ_SECONDS) tests/fuzz/run.sh $(FUZZ_TARGETS)
+	@FUZZ_SECONDS=$(FUZZ_SECONDS) FUZZ_JOBS=$(FUZZ_JOBS) tests/fuzz/run.sh $(FUZZ_TARGETS)
 
 fuzz-build: $(FUZZ_BIN)
 
