@@ -15,6 +15,7 @@
 #include "core/threads.h"
 #include "core/util.h"
 #include "light/eval.h"
+#include "light/fuse.h"
 #include "light/extract.h"
 #include "light/lights_json.h"
 #include "light/ridge.h"
@@ -128,6 +129,8 @@ typedef struct pano_row {
     pl_lighting *pred, *gt; /* [crops]: the model's estimates, the ground truths */
     pl_lighting *ridge;     /* [crops]: (d)'s estimates (zeros when not scored) */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
+    double key_angle[2];    /* key light over the crops' views (model, ridge): angle to the
+                               truth's primary in degrees, NAN when undefined (key_light()) */
 } pano_row;
 
 #define SKIP_FILE 1
@@ -143,6 +146,24 @@ static int primary_in_view(const pl_lighting *gt, const pl_crop_params *p)
     if (gt->n_lights <= 0) return -1;
     pl_lighting_primary(gt, dir, rgb);
     return pl_crop_project(p, dir, &x, &y);
+}
+
+/* The key light fused over a room's views (light/fuse.h), each crop a view turned into the
+ * panorama's frame by its camera's rotation, against the panorama's primary light: the angle in
+ * degrees, NAN when the truth has no light or no view holds light. */
+static double key_light(const crop_job *jobs, int crops, int ridge, const pl_lighting *truth)
+{
+    pl_fuser fu;
+    float key[3], dir[3], rgb[3];
+    if (truth->n_lights <= 0 || pl_fuser_init(&fu, 0) < 0) return NAN;
+    for (int i = 0; i < crops; i++) {
+        double R[9];
+        pl_crop_rotation(&jobs[i].p, R);
+        if (pl_fuser_add(&fu, ridge ? &jobs[i].ridge : &jobs[i].pred, R, 0) < 0) return NAN;
+    }
+    if (pl_fuser_key(&fu, 0, key, NULL) < 0) return NAN;
+    pl_lighting_primary(truth, dir, rgb);
+    return pl_eval_angle_deg(key, dir);
 }
 
 static void free_row(pano_row *r)
@@ -240,6 +261,8 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->ridge[i] = jobs[i].ridge;
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
     }
+    r->key_angle[0] = key_light(jobs, crops, 0, &lights);
+    r->key_angle[1] = ridge ? key_light(jobs, crops, 1, &lights) : NAN;
     return 0;
 }
 
@@ -455,6 +478,61 @@ static int put_table(FILE *f, const pl_eval_scores *s, int n, int have_ridge, do
     return 0;
 }
 
+/* Key light over each room's views: per method (model, ridge) the statistics over rooms of the
+ * fused key light's angle (kind 0) and of each room's median single-crop angle (kind 1). buf:
+ * crops + n_rows values. */
+static int key_stats(const pano_row *rows, int n_rows, int crops, int ridge, int kind, double *buf,
+                     pl_eval_stats *out)
+{
+    for (int r = 0; r < n_rows; r++) {
+        pl_eval_stats room;
+        int rc = stats_of(rows[r].s, crops, ridge ? PL_EVAL_RIDGE : PL_EVAL_MODEL, 2, NULL, 0, buf,
+                          &room);
+        if (rc < 0) return rc;
+        buf[crops + r] = kind == 0 ? rows[r].key_angle[ridge] : room.median;
+    }
+    return pl_eval_quartiles(buf + crops, n_rows, out);
+}
+
+static int put_key_lights(FILE *f, const pano_row *rows, int n_rows, int crops, int have_ridge,
+                          double *buf)
+{
+    char h[2][96];
+    snprintf(h[0], sizeof h[0], "key light, %d room%s", n_rows, n_rows == 1 ? "" : "s");
+    snprintf(h[1], sizeof h[1], "fused over %d views, deg", crops);
+    fprintf(f, "  %-24s  %-28s  %s\n", h[0], h[1], "single crops, room medians, deg");
+    for (int m = 0; m <= have_ridge; m++) {
+        fprintf(f, "  %-24s", pl_eval_method_label(m ? PL_EVAL_RIDGE : PL_EVAL_MODEL));
+        for (int kind = 0; kind < 2; kind++) {
+            pl_eval_stats st;
+            int rc = key_stats(rows, n_rows, crops, m, kind, buf, &st);
+            if (rc < 0) return rc;
+            put_cell(f, &st, kind == 0 ? 28 : 0);
+        }
+        fputc('\n', f);
+    }
+    return 0;
+}
+
+static int put_key_lights_json(FILE *f, const pano_row *rows, int n_rows, int crops,
+                               int have_ridge, double *buf)
+{
+    fprintf(f, "{\"rooms\":%d,\"views\":%d", n_rows, crops);
+    for (int m = 0; m <= have_ridge; m++) {
+        fprintf(f, ",\"%s\":{", pl_eval_method_key(m ? PL_EVAL_RIDGE : PL_EVAL_MODEL));
+        for (int kind = 0; kind < 2; kind++) {
+            pl_eval_stats st;
+            int rc = key_stats(rows, n_rows, crops, m, kind, buf, &st);
+            if (rc < 0) return rc;
+            if (kind) fputc(',', f);
+            put_stats_json(f, kind == 0 ? "fused_angle_deg" : "room_median_angle_deg", &st, 1);
+        }
+        fputc('}', f);
+    }
+    fputc('}', f);
+    return 0;
+}
+
 /* The angle column again, split by where the ground truth's primary light is. */
 static int put_angle_by_view(FILE *f, const pl_eval_scores *s, const signed char *in_view, int n,
                              int have_ridge, double *buf)
@@ -627,7 +705,7 @@ int cmd_eval(int argc, char **argv)
     const int n_crops = n_rows * crops;
     pl_eval_scores *all = malloc((size_t)n_crops * PL_EVAL_N_METHODS * sizeof *all);
     signed char *all_in_view = malloc((size_t)n_crops);
-    buf = malloc((size_t)n_crops * sizeof *buf);
+    buf = malloc(((size_t)n_crops + (size_t)crops + (size_t)n_rows) * sizeof *buf);
     if (!all || !all_in_view || !buf) {
         free(all);
         free(all_in_view);
@@ -675,6 +753,8 @@ int cmd_eval(int argc, char **argv)
         printf(",\"angle_by_view\":");
         if (rc == 0)
             rc = put_angle_by_view_json(stdout, all, all_in_view, n_crops, ridge != NULL, buf);
+        printf(",\"key_light_over_views\":");
+        if (rc == 0) rc = put_key_lights_json(stdout, rows, n_rows, crops, ridge != NULL, buf);
         printf(",\"panoramas\":[");
         for (int r = 0; r < n_rows && rc == 0; r++) {
             const pano_row *pr = &rows[r];
@@ -683,7 +763,13 @@ int cmd_eval(int argc, char **argv)
             printf(",\"width\":%d,\"height\":%d,\"gt_lights\":%d,\"methods\":", pr->width,
                    pr->height, pr->n_gt_lights);
             rc = put_methods_json(stdout, pr->s, crops, ridge != NULL, buf);
-            printf(",\"crops\":[");
+            printf(",\"key_light_angle_deg\":{\"model\":");
+            put_num(stdout, pr->key_angle[0]);
+            if (ridge) {
+                printf(",\"ridge\":");
+                put_num(stdout, pr->key_angle[1]);
+            }
+            printf("},\"crops\":[");
             for (int i = 0; i < crops && rc == 0; i++) {
                 if (i) putchar(',');
                 rc = put_crop_json(stdout, pr, i, ridge != NULL);
@@ -703,6 +789,7 @@ int cmd_eval(int argc, char **argv)
         if (ridge) printf("  (d) ridge: %s\n", ridge_path);
         rc = put_table(stdout, all, n_crops, ridge != NULL, buf);
         if (rc == 0) rc = put_angle_by_view(stdout, all, all_in_view, n_crops, ridge != NULL, buf);
+        if (rc == 0) rc = put_key_lights(stdout, rows, n_rows, crops, ridge != NULL, buf);
         for (int r = 0; r < n_rows && per_pano && rc == 0; r++) {
             printf("\n%s (%dx%d, %d ground-truth light%s)\n", rows[r].file, rows[r].width,
                    rows[r].height, rows[r].n_gt_lights, rows[r].n_gt_lights == 1 ? "" : "s");

@@ -34,5 +34,5 @@ BOARD_TEST_CFLAGS := -fno-tree-loop-vectorize
 # every Linux: qemu-user does not emulate V4L2 ioctls, and Debian 12's qemu-aarch64 7.2 hangs
 # here in any program that starts a second thread, docs/PORTING.md) and the CLI/pipeline tests
 # (covered natively). Names end with (\.sh)?$ so test_eval does not pull in test_eval_cli.sh.
-BOARD_TESTS    := ^test_(arm_qemu_cpus|crop|eval|extract|extract_real|hdr_io|image_io|image_codec|json|kernels_s8|kernels_simd_s8|kernels_simd_f32|pixfmt|quant_fold|relight|render|requant|resize|sg|sh|source|temporal|nn_vectors|golden|isa_exact|model_files)(\.sh)?$
+BOARD_TESTS    := ^test_(arm_qemu_cpus|crop|eval|extract|extract_real|hdr_io|image_io|image_codec|json|kernels_s8|kernels_simd_s8|kernels_simd_f32|pixfmt|quant_fold|relight|render|requant|resize|sg|sh|source|temporal|fuse|nn_vectors|golden|isa_exact|model_files)(\.sh)?$
 BOARD_TEST_ENV := PL_GOLDEN_N=3 PL_GOLDEN_MAX_FRAMES=2

@@ -1,0 +1,227 @@
+/* light/fuse.c: the key light over views. One lobe gives its own direction, turned by the
+ * camera's rotation; a light seen from three headings wins over a brighter lobe that stays put
+ * in every camera frame (what one frame cannot tell apart); a camera that dwells on one heading
+ * counts once; views expire by age; a view's exposure does not matter; a light smaller than the
+ * search grid's spacing is still found; bad arguments are refused and leave the state alone. */
+#include <string.h>
+
+#include "core/status.h"
+#include "light/fuse.h"
+#include "light/light.h"
+#include "light_test.h"
+
+static pl_light lobe(double x, double y, double z, float sr, float lum)
+{
+    pl_light l;
+    float d[3] = {(float)x, (float)y, (float)z};
+    unit3(d);
+    memcpy(l.dir, d, sizeof d);
+    l.distance_m = 3.0f;
+    l.solid_angle_sr = sr;
+    l.rgb[0] = l.rgb[1] = l.rgb[2] = lum;
+    return l;
+}
+
+/* Camera-to-world rotation of a camera turned by `heading` radians about world y (heading 0
+ * looks along -z, pi/2 along +x: the fuser's heading convention). */
+static void heading_R(double heading, double R[9])
+{
+    double c = cos(heading), s = sin(heading);
+    double M[9] = {c, 0, -s, 0, 1, 0, s, 0, c};
+    memcpy(R, M, sizeof M);
+}
+
+/* World direction w into the camera frame of R (R^T w). */
+static void to_cam(const double R[9], const double w[3], double out[3])
+{
+    for (int k = 0; k < 3; k++)
+        out[k] = R[k] * w[0] + R[3 + k] * w[1] + R[6 + k] * w[2];
+}
+
+/* The angle between a and b in degrees (atan2 of |a x b| and a . b: exact near 0 too). */
+static double deg_between(const float a[3], const double b[3])
+{
+    double c0 = a[1] * b[2] - a[2] * b[1], c1 = a[2] * b[0] - a[0] * b[2],
+           c2 = a[0] * b[1] - a[1] * b[0];
+    return atan2(sqrt(c0 * c0 + c1 * c1 + c2 * c2), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) *
+           180 / M_PI;
+}
+
+static void test_one_lobe(void)
+{
+    pl_fuser f;
+    pl_lighting L = {0};
+    double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, R[9], w[3];
+    float key[3];
+    int views;
+    CHECK(pl_fuser_init(&f, 0) == 0, "init");
+    CHECK(pl_fuser_key(&f, 0, key, &views) == PL_E_ARG && views == 0 && key[1] == 1,
+          "an empty fuser has no key light");
+    L.n_lights = 1;
+    L.lights[0] = lobe(0.3, 0.5, -0.8, 2.5f, 1.0f);
+    CHECK(pl_fuser_add(&f, &L, I, 0) == 0, "add");
+    CHECK(pl_fuser_key(&f, 0, key, &views) == 0 && views == 1, "key of one view");
+    double d0[3] = {L.lights[0].dir[0], L.lights[0].dir[1], L.lights[0].dir[2]};
+    CHECK(deg_between(key, d0) < 0.01, "one lobe: key %.4f deg off its direction", deg_between(key, d0));
+    /* the same frame from a camera turned 90 degrees: the key turns with it */
+    pl_fuser_reset(&f);
+    heading_R(M_PI / 2, R);
+    CHECK(pl_fuser_add(&f, &L, R, 0) == 0, "add turned");
+    CHECK(pl_fuser_key(&f, 0, key, NULL) == 0, "key turned");
+    for (int k = 0; k < 3; k++)
+        w[k] = R[3 * k] * d0[0] + R[3 * k + 1] * d0[1] + R[3 * k + 2] * d0[2];
+    CHECK(deg_between(key, w) < 0.01, "turned: key %.4f deg off R d", deg_between(key, w));
+}
+
+/* Three headings 120 degrees apart. Each frame has the room's light (world direction `light`,
+ * energy 0.45) and a brighter lobe fixed in the camera frame (0.55, up and to the right): every
+ * frame's brightest light is the fixed one, which points somewhere else in each view. */
+static void test_triangulation(void)
+{
+    pl_fuser f;
+    double light[3] = {0.8, 0.3, 0.2}, R[9], c[3];
+    float key[3];
+    int views;
+    pl_fuser_init(&f, 0);
+    for (int v = 0; v < 3; v++) {
+        pl_lighting L = {0};
+        heading_R(v * 2 * M_PI / 3, R);
+        to_cam(R, light, c);
+        L.n_lights = 2;
+        L.lights[0] = lobe(0.6, 0.4, -0.7, 2.5f, 0.55f);
+        L.lights[1] = lobe(c[0], c[1], c[2], 2.5f, 0.45f);
+        L.ambient[0] = L.ambient[1] = L.ambient[2] = 0.3f;
+        CHECK(pl_light_energy(&L.lights[0]) > pl_light_energy(&L.lights[1]), "fixed lobe brighter");
+        CHECK(pl_fuser_add(&f, &L, R, 0) == 0, "add view %d", v);
+    }
+    CHECK(pl_fuser_key(&f, 0, key, &views) == 0 && views == 3, "key of 3 views (%d)", views);
+    CHECK(deg_between(key, light) < 3, "three views: key %.2f deg from the room's light",
+          deg_between(key, light));
+}
+
+/* One heading seen 50 times against two others once each: the heading counts once. */
+static void test_dwelling(void)
+{
+    pl_fuser f;
+    double R[9], c[3], a[3] = {0, 0.2, -1}, b[3] = {1, 0.2, 0.3};
+    float key[3];
+    int views;
+    pl_fuser_init(&f, 0);
+    for (int i = 0; i < 50; i++) {
+        pl_lighting L = {0};
+        heading_R(0.01 * (i % 3), R); /* small jitter, same bin */
+        to_cam(R, a, c);
+        L.n_lights = 1;
+        L.lights[0] = lobe(c[0], c[1], c[2], 1.0f, 1.0f);
+        pl_fuser_add(&f, &L, R, i);
+    }
+    for (int v = 1; v <= 2; v++) {
+        pl_lighting L = {0};
+        heading_R(v * M_PI / 2, R);
+        to_cam(R, b, c);
+        L.n_lights = 1;
+        L.lights[0] = lobe(c[0], c[1], c[2], 1.0f, 1.0f);
+        pl_fuser_add(&f, &L, R, 50 + v);
+    }
+    CHECK(pl_fuser_key(&f, 60, key, &views) == 0 && views == 3, "3 bins, not 52 (%d)", views);
+    CHECK(deg_between(key, b) < 1, "two headings outvote one seen 50 times (%.2f deg)",
+          deg_between(key, b));
+    /* the same two views much brighter (another exposure) change nothing */
+    pl_lighting L = {0};
+    heading_R(M_PI / 2, R);
+    to_cam(R, b, c);
+    L.n_lights = 1;
+    L.lights[0] = lobe(c[0], c[1], c[2], 1.0f, 1000.0f);
+    pl_fuser_add(&f, &L, R, 55);
+    float key2[3];
+    pl_fuser_key(&f, 60, key2, NULL);
+    CHECK(deg_between(key2, (double[3]){key[0], key[1], key[2]}) < 1e-4,
+          "a view's exposure does not move the key (%.6f deg)",
+          deg_between(key2, (double[3]){key[0], key[1], key[2]}));
+}
+
+static void test_age(void)
+{
+    pl_fuser f;
+    double R[9], c[3], a[3] = {0, 0.5, -1}, b[3] = {-1, 0.1, 0};
+    float key[3];
+    int views;
+    CHECK(pl_fuser_init(&f, 10) == 0, "init 10 s");
+    for (int v = 0; v < 2; v++) { /* the old room: two views at t = 0 */
+        pl_lighting L = {0};
+        heading_R(v * M_PI / 2, R);
+        to_cam(R, a, c);
+        L.n_lights = 1;
+        L.lights[0] = lobe(c[0], c[1], c[2], 1.0f, 1.0f);
+        pl_fuser_add(&f, &L, R, 0);
+    }
+    CHECK(pl_fuser_key(&f, 9, key, &views) == 0 && views == 2 && deg_between(key, a) < 1,
+          "at t 9 the old views count (%d)", views);
+    pl_lighting L = {0};
+    heading_R(M_PI, R);
+    to_cam(R, b, c);
+    L.n_lights = 1;
+    L.lights[0] = lobe(c[0], c[1], c[2], 1.0f, 1.0f);
+    pl_fuser_add(&f, &L, R, 20);
+    CHECK(pl_fuser_key(&f, 20, key, &views) == 0 && views == 1 && deg_between(key, b) < 0.01,
+          "at t 20 they have expired (%d views, %.2f deg)", views, deg_between(key, b));
+    CHECK(pl_fuser_key(&f, 31, key, &views) == PL_E_ARG && views == 0, "at t 31 nothing is left");
+}
+
+static void test_small_light(void)
+{
+    pl_fuser f;
+    pl_lighting L = {0};
+    double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    float key[3];
+    pl_fuser_init(&f, 0);
+    L.n_lights = 2;
+    L.lights[0] = lobe(0.123, 0.456, -0.789, 1e-4f, 5000.0f); /* ~0.6 degrees wide */
+    L.lights[1] = lobe(-1, 0, 0, 2.0f, 0.01f);
+    pl_fuser_add(&f, &L, I, 0);
+    double d[3] = {L.lights[0].dir[0], L.lights[0].dir[1], L.lights[0].dir[2]};
+    CHECK(pl_fuser_key(&f, 0, key, NULL) == 0 && deg_between(key, d) < 0.01,
+          "a light narrower than the grid: %.3f deg off", deg_between(key, d));
+}
+
+static void test_bad_args(void)
+{
+    pl_fuser f;
+    pl_lighting L = {0};
+    double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, S[9] = {2, 0, 0, 0, 1, 0, 0, 0, 1};
+    float key[3];
+    int views;
+    CHECK(pl_fuser_init(&f, -1) == PL_E_ARG && pl_fuser_init(&f, NAN) == PL_E_ARG &&
+              pl_fuser_init(&f, INFINITY) == PL_E_ARG,
+          "a max age < 0 or not finite is refused");
+    pl_fuser_init(&f, 0);
+    L.n_lights = 1;
+    L.lights[0] = lobe(0, 1, 0, 1.0f, 1.0f);
+    CHECK(pl_fuser_add(&f, &L, S, 0) == PL_E_ARG && strstr(pl_last_error(), "not a rotation"),
+          "a scaled matrix is refused: %s", pl_last_error());
+    CHECK(pl_fuser_add(&f, &L, I, NAN) == PL_E_ARG, "a time that is not finite is refused");
+    L.lights[0].rgb[1] = -1;
+    CHECK(pl_fuser_add(&f, &L, I, 0) == PL_E_ARG, "a bad lighting is refused");
+    CHECK(pl_fuser_key(&f, 0, key, &views) == PL_E_ARG && views == 0, "nothing was added");
+    pl_lighting dark = {0};
+    dark.n_lights = 1;
+    dark.lights[0] = lobe(0, 1, 0, 1.0f, 0.0f);
+    CHECK(pl_fuser_add(&f, &dark, I, 0) == 0 && pl_fuser_key(&f, 0, key, &views) == PL_E_ARG,
+          "a view without light energy holds no key light");
+}
+
+int main(void)
+{
+    test_one_lobe();
+    test_triangulation();
+    test_dwelling();
+    test_age();
+    test_small_light();
+    test_bad_args();
+    if (failures) {
+        printf("%d failure(s)\n", failures);
+        return 1;
+    }
+    printf("fuse: all passed\n");
+    return 0;
+}
