@@ -17,6 +17,7 @@
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "light/pose.h"
+#include "light/fuse.h"
 #include "light/temporal.h"
 #include "parlight.h"
 #include "port/capture.h"
@@ -85,6 +86,9 @@ static void help(FILE *f)
             "                  up, yaw following the camera\n"
             "  --poses FILE    a camera-to-world quaternion per frame, JSON lines keyed by \"frame\"\n"
             "                  or \"t_ns\" (docs/OUTPUT.md, \"World space\")\n"
+            "  --fuse MAX_AGE  with --poses: add \"key_light\", the room's main light direction fused\n"
+            "                  over the headings seen (world space), forgetting views older than\n"
+            "                  MAX_AGE seconds (0: never) (docs/OUTPUT.md, \"Key light over views\")\n"
             "  --loop          --input only: start again at the end (frame numbers go on), until\n"
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
@@ -278,6 +282,7 @@ int cmd_estimate(int argc, char **argv)
                                          {"frame-interval", required_argument, 0, 1008},
                                          {"www", required_argument, 0, 1009},
                                          {"thumb", required_argument, 0, 1010},
+                                         {"fuse", required_argument, 0, 1011},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"mqtt-qos", required_argument, 0, 1001},
                                          {"mqtt-id", required_argument, 0, 1002},
@@ -298,6 +303,7 @@ int cmd_estimate(int argc, char **argv)
     app_thumb thumb = {0};
     char *thumb_line = NULL; /* the line with its "thumb" field */
     int have_orient = 0, n_pose_flags = 0;
+    double fuse_age = -1; /* --fuse MAX_AGE; < 0: not given */
     double fixed_q[4], fixed_R[9];
     const char *poses_path = NULL;
     cli_poses poses = {0};
@@ -390,6 +396,9 @@ int cmd_estimate(int argc, char **argv)
             poses_path = optarg;
             n_pose_flags++;
             break;
+        case 1011:
+            if (cli_double("estimate", "--fuse", optarg, 0, 1e9, 0, &fuse_age) < 0) return 2;
+            break;
         case 'W':
             if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
                         &wait_clients) < 0)
@@ -462,6 +471,11 @@ int cmd_estimate(int argc, char **argv)
                         "other\n");
         return 2;
     }
+    if (fuse_age >= 0 && !poses_path) {
+        fprintf(stderr, "parlight estimate: --fuse needs the camera's heading in every frame: "
+                        "--poses FILE (--orientation is one heading, --gravity has none)\n");
+        return 2;
+    }
     if (have_orient && pl_quat_to_rotation(fixed_q, fixed_R) < 0) {
         fprintf(stderr, "parlight estimate: --orientation: %s\n", pl_last_error());
         return 2;
@@ -502,12 +516,15 @@ int cmd_estimate(int argc, char **argv)
     pl_sinks *sinks = NULL;
     pl_capture *cap = NULL;
     pl_smoother smoother;
+    pl_fuser fuser;        /* --fuse */
+    double fuse_t = 0;     /* its clock: the filter's, summed */
     int rc = 1;
     if (alpha < 0) alpha = camera ? PL_SMOOTH_DEFAULT_ALPHA : 1.0f;
     if (pl_smoother_init(&smoother, alpha) < 0) {
         fprintf(stderr, "parlight estimate: --smooth: %s\n", pl_last_error());
         return 2;
     }
+    pl_fuser_init(&fuser, fuse_age > 0 ? fuse_age : 0);
     long long done = 0, skipped = 0, done_at_pass = 0;
     int64_t frame_base = 0, pass_frames = 0; /* --loop: frame numbers go on across passes */
     pl_ratelimit warn_limit, event_limit;    /* a storm prints a few lines and a count */
@@ -595,8 +612,10 @@ int cmd_estimate(int argc, char **argv)
         if (stop_requested) break;
         if (reload_requested) {
             reload_requested = 0;
+            const pl_model *before = model;
             reload_model(model_path, threads, have_anchor ? anchor : NULL, alpha, &model,
                          &smoother);
+            if (model != before) pl_fuser_reset(&fuser); /* another model's views */
         }
         pl_frame fr;
         int64_t dropped = 0;
@@ -670,6 +689,7 @@ int cmd_estimate(int argc, char **argv)
         }
         int est = pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
                                    fr.image.stride, &L, &tm);
+        const pl_lighting L_cam = L; /* the frame's own lights, for --fuse */
         if (est == 0 && orient) pl_lighting_rotate(&L, R, &L);
         if (est < 0 || pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {
@@ -680,6 +700,16 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: %s: the model produced a non-finite value\n",
                     fr.name);
             goto out;
+        }
+        float key[3];
+        int key_views = 0;
+        if (fuse_age >= 0) {
+            fuse_t += dt_s;
+            if (pl_fuser_add(&fuser, &L_cam, R, fuse_t) < 0) {
+                fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
+                goto out;
+            }
+            pl_fuser_key(&fuser, fuse_t, key, &key_views); /* no view with light: 0 views */
         }
         const double total_ms = (double)(pl_now_ns() - t0) / 1e6;
         const char *desc = pl_source_describe(src);
@@ -692,7 +722,17 @@ int cmd_estimate(int argc, char **argv)
         if (fr.index + 1 > pass_frames) pass_frames = fr.index + 1;
         const pl_frame_meta meta = {frame_base + fr.index, fr.t_ns, source, orient,
                                     tm, total_ms, latency_ms, dropped};
-        if (pl_frame_format_json(&meta, &L, line, sizeof line) < 0) {
+        int len = pl_frame_format_json(&meta, &L, line, sizeof line);
+        if (len >= 2 && fuse_age >= 0) { /* "key_light" goes last: before the closing "}\n" */
+            int w = key_views
+                        ? snprintf(line + len - 2, sizeof line - (size_t)len + 2,
+                                   ",\"key_light\":{\"dir\":[%.6g,%.6g,%.6g],\"views\":%d}}\n",
+                                   (double)key[0], (double)key[1], (double)key[2], key_views)
+                        : snprintf(line + len - 2, sizeof line - (size_t)len + 2,
+                                   ",\"key_light\":null}\n");
+            len = w > 0 && (size_t)w < sizeof line - (size_t)len + 2 ? len - 2 + w : -1;
+        }
+        if (len < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
         }

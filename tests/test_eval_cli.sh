@@ -78,50 +78,16 @@ for key, want in (("in_view", True), ("out_of_view", False)):
         got = abv.get(key, {}).get(m, {}).get("median")
         need((med is None and got is None) or (med is not None and got is not None and abs(got - med) < 1e-3),
              f"angle_by_view.{key}.{m} median {got}, the crops say {med}")
-# the key light over each room's views (light/fuse.h), recomputed here from the crops' estimates
-# and yaws by the same rule, written again: views by heading (all at pitch 0, yaws apart), each
-# view's lights at unit total energy, lobes no narrower than 1 - cos 6 deg, the best of the same
-# 1024-point Fibonacci sphere, then the mean shift; and the median over rooms of those angles
+# the key light over each room's views (light/fuse.h), recomputed from the crops' estimates
+# and yaws by tests/fuse_ref.py (the same rule written again in Python)
+sys.path.insert(0, "tests")
+from fuse_ref import key_light as fused, angle_deg, yaw_to_world, energy
 def key_light(crops):
-    def sgi(sr):
-        s = sr / (4 * math.pi)
-        return 2 * math.pi * s * -math.expm1(-2 / s)
-    lum = lambda c: 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-    bins = {}
-    for c in crops:  # camera to panorama: about y by -yaw (eval's crops look along -z at yaw 0)
-        a = math.radians(c["yaw_deg"])
-        rot = lambda v: [math.cos(a) * v[0] - math.sin(a) * v[2], v[1], math.sin(a) * v[0] + math.cos(a) * v[2]]
-        ls = c["estimate"]["lights"]
-        tot = sum(lum(l["rgb"]) * sgi(l["solid_angle_sr"]) for l in ls)
-        lob = []
-        for l in ls:
-            e = lum(l["rgb"]) * sgi(l["solid_angle_sr"])
-            if e <= 0: continue
-            s = max(l["solid_angle_sr"] / (4 * math.pi), 1 - math.cos(math.radians(6)))
-            lob.append((rot(l["dir"]), e / tot / sgi(4 * math.pi * s), 1 / s))
-        bins[round(c["yaw_deg"] / 45) % 8] = lob if tot > 0 else []
-    lob = [x for v in bins.values() for x in v]
-    if not lob: return None
-    def E(u):
-        return sum(w * math.exp(k * (u[0] * d[0] + u[1] * d[1] + u[2] * d[2] - 1)) for d, w, k in lob)
-    best, be = None, -1
-    for j in range(1024):
-        y = 1 - 2 * (j + 0.5) / 1024; r = math.sqrt(1 - y * y); t = j * math.pi * (3 - math.sqrt(5))
-        u = (r * math.cos(t), y, r * math.sin(t)); e = E(u)
-        if e > be: best, be = u, e
-    for _ in range(100):
-        g = [0.0, 0.0, 0.0]
-        for d, w, k in lob:
-            x = w * k * math.exp(k * (best[0] * d[0] + best[1] * d[1] + best[2] * d[2] - 1))
-            for q in range(3): g[q] += x * d[q]
-        n = math.sqrt(sum(x * x for x in g)); best = [x / n for x in g]
+    k = fused({round(c["yaw_deg"] / 45) % 8: [dict(l, dir=yaw_to_world(c["yaw_deg"], l["dir"]))
+                                           for l in c["estimate"]["lights"]] for c in crops})
     gt = crops[0]["ground_truth"]["lights"]
-    if not gt: return None
-    a = math.radians(crops[0]["yaw_deg"])
-    p = max(gt, key=lambda l: lum(l["rgb"]) * sgi(l["solid_angle_sr"]))["dir"]
-    t = [math.cos(a) * p[0] - math.sin(a) * p[2], p[1], math.sin(a) * p[0] + math.cos(a) * p[2]]
-    dot = sum(x * y for x, y in zip(best, t)) / math.sqrt(sum(x * x for x in t))
-    return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
+    if k is None or not gt: return None
+    return angle_deg(k, yaw_to_world(crops[0]["yaw_deg"], max(gt, key=energy)["dir"]))
 kl = d.get("key_light_over_views", {})
 need(kl.get("rooms") == n_pano and kl.get("views") == n_crops, f"key_light_over_views {kl}")
 mine = []

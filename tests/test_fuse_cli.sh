@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# `parlight estimate --fuse` (docs/OUTPUT.md, "Key light over views"): eight crops of one
+# panorama made here (`parlight render` of one light, `parlight crop --batch 8`), read as files
+# with a --poses file that turns each by its yaw. Every line gets "key_light", resting on one more
+# heading each frame; the last one is the key light recomputed by tests/fuse_ref.py from the
+# lines' own world-space lights, and its angle to the panorama's light is the one `parlight eval`
+# reports for the same room (eval's crops are crop --batch's: test_eval_cli.sh). With --fuse 1.5
+# (frames 1 s apart by their files' times) at most two views count. Bad input: --fuse without --poses, with
+# --orientation, a negative or non-numeric age.
+# Model: build/models/seeded-n3.plm (seeded weights: the plumbing is what is tested).
+set -u
+cd "$(dirname "$0")/.."
+BUILD=${BUILD:-build}
+P="$BUILD/parlight"
+M=build/models/seeded-n3.plm
+PY=/usr/bin/python3
+T=${PL_TEST_TMP:-$(mktemp -d)}/fuse_cli
+[ -x "$P" ] || { echo "skip: $P not built"; exit 77; }
+[ -f "$M" ] || { echo "skip: no $M (make build/models/seeded-n3.plm)"; exit 77; }
+rm -rf "$T"
+mkdir -p "$T/pano" "$T/crops"
+. "$(dirname "$0")/cli_helpers.sh"
+
+cat >"$T/one.json" <<'J'
+{"lights":[{"dir":[0.5,0.3,-0.6],"distance_m":2,"solid_angle_sr":0.08,"rgb":[300,280,240]}],
+ "ambient":[0.25,0.25,0.3]}
+J
+"$P" render --lights "$T/one.json" --out "$T/pano/one.exr" --width 512 >/dev/null 2>&1 &&
+    "$P" crop --hdr "$T/pano/one.exr" --batch 8 --out-dir "$T/crops" >/dev/null 2>&1 ||
+    { echo "FAIL: could not make the test panorama and its crops"; exit 1; }
+rm -f "$T"/crops/*.json # the crops' ground truth: not frames
+[ "$(ls "$T"/crops | wc -l)" -eq 8 ] || { echo "FAIL: expected 8 crops: $(ls "$T/crops")"; exit 1; }
+i=0 # modification times 1 s apart: the frames' t_ns, hence the clock --fuse's ages are read on
+for f in "$T"/crops/*; do touch -d "@$((1700000000 + i))" "$f"; i=$((i + 1)); done
+# frame i is the crop at yaw 45 i (files in name order); its camera-to-world turn is about y by
+# -yaw: q = (cos(yaw/2), 0, -sin(yaw/2), 0)
+$PY -c 'import json, math
+for i in range(8):
+    a = math.radians(45 * i)
+    print(json.dumps({"frame": i, "q": [math.cos(a / 2), 0, -math.sin(a / 2), 0]}))' >"$T/poses.jsonl"
+
+est=("$P" estimate --model "$M" --input "$T/crops" --poses "$T/poses.jsonl")
+expect 0 "" -- "${est[@]}" --fuse 0
+cp "$T/out" "$T/fused.jsonl"
+expect 0 "" -- "$P" eval --model "$M" --hdr "$T/pano" --crops 8 --size 32 --json --ridge none
+cp "$T/out" "$T/eval.json"
+$PY - "$T/fused.jsonl" "$T/eval.json" <<'PY' && ok "key_light: 1..8 views, the reference's direction, eval's angle" || fail "key_light"
+import json, sys
+sys.path.insert(0, "tests")
+from fuse_ref import key_light, angle_deg
+lines = [json.loads(l) for l in open(sys.argv[1])]
+ev = json.load(open(sys.argv[2]))
+assert len(lines) == 8, len(lines)
+views = {}
+for i, d in enumerate(lines):
+    assert d["space"] == "world", d["space"]
+    k = d["key_light"]
+    views[i] = d["lights"]  # one heading each (45 degrees apart)
+    want = key_light(views)
+    assert k["views"] == len([v for v in views.values() if v]), (i, k)
+    a = angle_deg(k["dir"], want)
+    assert a < 0.01, f"frame {i}: key light {k['dir']} is {a:.4f} deg from the reference {want}"
+truth = [0.5, 0.3, -0.6]
+got = angle_deg(lines[-1]["key_light"]["dir"], truth)
+want = ev["panoramas"][0]["key_light_angle_deg"]["model"]
+assert abs(got - want) < 0.5, f"estimate's key light is {got:.3f} deg from the light, eval says {want}"
+print(f"last key light {got:.2f} deg from the panorama's light (eval: {want:.2f})")
+PY
+# a short memory: frames 1 s apart, so 1.5 s keeps the newest two views
+expect 0 "" -- "${est[@]}" --fuse 1.5
+$PY -c 'import json, sys
+v = [json.loads(l)["key_light"]["views"] for l in open(sys.argv[1])]
+sys.exit(0 if v == [1, 2, 2, 2, 2, 2, 2, 2] else (print(v) or 1))' "$T/out" &&
+    ok "--fuse 1.5: views 1, then 2" || fail "--fuse 1.5 views: $(head -c 300 "$T/out")"
+# without --fuse, no key_light
+expect 0 "" -- "${est[@]}"
+grep -q key_light "$T/out" && fail "key_light without --fuse"
+
+# --- bad input ---
+expect 2 "--fuse needs the camera's heading in every frame: --poses FILE" -- \
+    "$P" estimate --model "$M" --input "$T/crops" --fuse 0
+expect 2 "--fuse needs" -- "$P" estimate --model "$M" --input "$T/crops" --orientation 1,0,0,0 --fuse 0
+expect 2 "--fuse" -- "${est[@]}" --fuse -1
+expect 2 "--fuse" -- "${est[@]}" --fuse soon
+expect 2 "--fuse" -- "${est[@]}" --fuse nan
+finish
