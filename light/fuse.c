@@ -119,7 +119,8 @@ int pl_fuser_key(const pl_fuser *f, double t_s, float dir[3], int *views)
     int n = 0;
     dir[0] = 0, dir[1] = 1, dir[2] = 0;
     if (views) *views = 0;
-    if (!f || !isfinite(t_s)) return pl_error(PL_E_ARG, "fuse: no fuser or a time that is not finite");
+    if (!f || !isfinite(t_s))
+        return pl_error(PL_E_ARG, "fuse: no fuser or a time that is not finite");
     for (int b = 0; b < PL_FUSE_BINS; b++)
         n += live(f, &f->bins[b], t_s);
     if (n == 0) return pl_error(PL_E_ARG, "fuse: no view with light yet");

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # tools/train/compare_evals.py, the paired comparison of two `parlight eval --json` files:
 # its counts, median effects and pooled medians on a hand-made pair whose answers are worked out
-# below (also with a null angle, and split by eval's primary_in_view flags); a model against
+# below (also with a null angle, split by eval's primary_in_view flags, and the key light over
+# each room's views); a model against
 # itself (every effect 0, interval [0, 0]) and two models on real
 # `parlight eval --json` output of rendered panoramas (so a change of eval's JSON breaks this
 # test); files of different crops, non-eval JSON and a missing file refused with a message.
@@ -110,7 +111,36 @@ PY
 "$PY" "$C" "$T/a.json" "$T/t.json" >"$T/out" 2>"$T/err" || fail "tail table: $(cat "$T/err")"
 grep -q "angle tail: crops over 90 deg 0 -> 2, within 45 deg 4 -> 1" "$T/out" ||
     fail "table lacks the tail line: $(cat "$T/out")"
-echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out, angle split by view, tail counts"
+# the key light over each room's views: A 40 and 70, B 30 and 80 -> B closer in 1, farther in 1,
+# medians over rooms 55 -> 55; one file without the member: no key-light figures; a B null: 1 room
+"$PY" - "$T" <<'PY' || fail "could not write the key-light files"
+import json, sys
+t = sys.argv[1]
+for src, dst, keys in (("a", "ka", (40, 70)), ("b", "kb", (30, 80)), ("b", "kn", (None, 80)),
+                       ("b", "kx", ("far", 80))):
+    d = json.load(open(f"{t}/{src}.json"))
+    for p, k in zip(d["panoramas"], keys):
+        p["key_light_angle_deg"] = {"model": k}
+    json.dump(d, open(f"{t}/{dst}.json", "w"))
+PY
+"$PY" "$C" "$T/ka.json" "$T/kb.json" --json >"$T/kab.json" 2>"$T/err" || fail "key-light pair: $(cat "$T/err")"
+"$PY" "$C" "$T/ka.json" "$T/kn.json" --json >"$T/kan.json" 2>"$T/err" || fail "key-light null: $(cat "$T/err")"
+"$PY" "$C" "$T/ka.json" "$T/b.json" --json >"$T/kaa.json" 2>"$T/err" || fail "one without: $(cat "$T/err")"
+"$PY" - "$T/kab.json" "$T/kan.json" "$T/kaa.json" <<'PY' || fail "key light: wrong figures ($(cat "$T/kab.json" "$T/kan.json"))"
+import json, sys
+k, n, none = (json.load(open(p)) for p in sys.argv[1:4])
+want = {"rooms": 2, "b_closer": 1, "b_farther": 1, "median_a": 55.0, "median_b": 55.0}
+wantn = {"rooms": 1, "b_closer": 0, "b_farther": 1, "median_a": 70.0, "median_b": 80.0}
+print(k.get("key_light"), n.get("key_light"))
+sys.exit(0 if k.get("key_light") == want and n.get("key_light") == wantn and "key_light" not in none
+         and k["per_panorama"][0]["key_light_angle_deg"] == [40, 30] else 1)
+PY
+"$PY" "$C" "$T/ka.json" "$T/kb.json" >"$T/out" 2>"$T/err" || fail "key-light table: $(cat "$T/err")"
+grep -q "key light over each room's views (deg): B closer in 1, farther in 1 of 2 rooms; median over rooms 55 -> 55" "$T/out" ||
+    fail "table lacks the key-light line: $(cat "$T/out")"
+"$PY" "$C" "$T/ka.json" "$T/kx.json" >"$T/out" 2>"$T/err" && fail "a key light that is not a number was compared"
+grep -q "key_light_angle_deg 'far' is not a number" "$T/err" || fail "bad key light: $(cat "$T/err")"
+echo "ok  hand-made pair: counts, median effects and pooled medians as worked out, nulls left out, angle split by view, tail counts, key light over views"
 "$PY" "$C" "$T/a.json" "$T/c.json" >"$T/out" 2>"$T/err" && fail "different yaws were compared"
 grep -q "p1.hdr: .*score different crops" "$T/err" || fail "different crops: $(cat "$T/err")"
 echo '{"lights": []}' >"$T/lights.json"

@@ -43,8 +43,8 @@ static double deg_between(const float a[3], const double b[3])
 {
     double c0 = a[1] * b[2] - a[2] * b[1], c1 = a[2] * b[0] - a[0] * b[2],
            c2 = a[0] * b[1] - a[1] * b[0];
-    return atan2(sqrt(c0 * c0 + c1 * c1 + c2 * c2), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) *
-           180 / M_PI;
+    return atan2(sqrt(c0 * c0 + c1 * c1 + c2 * c2), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * 180 /
+           M_PI;
 }
 
 static void test_one_lobe(void)
@@ -62,7 +62,8 @@ static void test_one_lobe(void)
     CHECK(pl_fuser_add(&f, &L, I, 0) == 0, "add");
     CHECK(pl_fuser_key(&f, 0, key, &views) == 0 && views == 1, "key of one view");
     double d0[3] = {L.lights[0].dir[0], L.lights[0].dir[1], L.lights[0].dir[2]};
-    CHECK(deg_between(key, d0) < 0.01, "one lobe: key %.4f deg off its direction", deg_between(key, d0));
+    CHECK(deg_between(key, d0) < 0.01, "one lobe: key %.4f deg off its direction",
+          deg_between(key, d0));
     /* the same frame from a camera turned 90 degrees: the key turns with it */
     pl_fuser_reset(&f);
     heading_R(M_PI / 2, R);

@@ -18,7 +18,9 @@ and in B: a change can cut the worst answers and leave the median where it was, 
 "Direction first through the whole network"), and per panorama the medians of both. When both
 files have eval's `primary_in_view` flags (since 2026-12-04), the angle is also compared on the
 crops whose true primary light is in view and on those where it is outside the crop (most of
-them). A score eval wrote as null (the angle of a crop whose panorama has no extracted light) is
+them). When both have eval's key light over each room's views (`key_light_angle_deg`, since
+2026-12-07: docs/EVAL.md), it prints in how many rooms B's fused key light is closer and farther,
+and the median over rooms of both. A score eval wrote as null (the angle of a crop whose panorama has no extracted light) is
 left out of every figure, as eval's own statistics leave out non-finite values. --method names
 the row of each file to compare (model, ambient, brightest, ridge; default model, so two models'
 files). Standard library only.
@@ -64,16 +66,26 @@ def load(path, method):
             rows.append(((c.get("yaw_deg"), c.get("exposure_scale")), sc))
         if not rows:
             raise SystemExit(f"compare_evals: {path}: {p.get('file')}: no per-crop rows")
-        out.append((p.get("file"), rows))
+        # the key light over the room's views: None when the file has none (before 2026-12-07, or
+        # not for this row), NaN when eval wrote null
+        kl = p.get("key_light_angle_deg")
+        key = None
+        if isinstance(kl, dict) and method in kl:
+            v = kl[method]
+            if not (v is None or isinstance(v, (int, float))):
+                raise SystemExit(f"compare_evals: {path}: {p.get('file')}: key_light_angle_deg "
+                                 f"{v!r} is not a number")
+            key = math.nan if v is None else float(v)
+        out.append((p.get("file"), rows, key))
     return out
 
 
 def paired(a, b, pa, pb):
-    if [p for p, _ in a] != [p for p, _ in b]:
+    if [p[0] for p in a] != [p[0] for p in b]:
         raise SystemExit(f"compare_evals: {pa} and {pb} score different panoramas: "
-                         f"{[p for p, _ in a]} against {[p for p, _ in b]}")
+                         f"{[p[0] for p in a]} against {[p[0] for p in b]}")
     pairs = []
-    for (pano, ra), (_, rb) in zip(a, b):
+    for (pano, ra, _), (_, rb, _) in zip(a, b):
         if [k for k, _ in ra] != [k for k, _ in rb]:
             raise SystemExit(f"compare_evals: {pano}: {pa} and {pb} score different crops "
                              "(crops per panorama, yaw or exposure differ)")
@@ -123,7 +135,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.boot < 0:
         raise SystemExit(f"compare_evals: --boot {a.boot}: expected 0 or more")
-    pairs = paired(load(a.a, a.method), load(a.b, a.method), a.a, a.b)
+    la, lb = load(a.a, a.method), load(a.b, a.method)
+    pairs = paired(la, lb, a.a, a.b)
     rng = random.Random(a.seed)
     res = {"a": a.a, "b": a.b, "method": a.method, "panoramas": len(pairs),
            "crops": sum(len(r) for _, r in pairs), "scores": {}, "per_panorama": []}
@@ -145,6 +158,15 @@ def main(argv=None):
     for pano, r in pairs:
         res["per_panorama"].append({"file": pano, **{
             s: [median([x[s] for x, _ in r]), median([y[s] for _, y in r])] for s in SCORES}})
+    keys = [(ka, kb) for (_, _, ka), (_, _, kb) in zip(la, lb)]
+    if all(ka is not None and kb is not None for ka, kb in keys):
+        both = [(ka, kb) for ka, kb in keys if not (math.isnan(ka) or math.isnan(kb))]
+        res["key_light"] = {"rooms": len(both), "b_closer": sum(kb < ka for ka, kb in both),
+                            "b_farther": sum(kb > ka for ka, kb in both),
+                            "median_a": median([ka for ka, _ in both]),
+                            "median_b": median([kb for _, kb in both])}
+        for p, (ka, kb) in zip(res["per_panorama"], keys):
+            p["key_light_angle_deg"] = [ka, kb]
     if a.json:
         json.dump(res, sys.stdout, indent=1)
         print()
@@ -163,10 +185,17 @@ def main(argv=None):
     t = res["angle_tail"]
     print(f"  angle tail: crops over 90 deg {t['over_90'][0]} -> {t['over_90'][1]}, "
           f"within 45 deg {t['within_45'][0]} -> {t['within_45'][1]}")
+    k = res.get("key_light")
+    if k:
+        print(f"  key light over each room's views (deg): B closer in {k['b_closer']}, farther in "
+              f"{k['b_farther']} of {k['rooms']} rooms; median over rooms "
+              f"{k['median_a']:.4g} -> {k['median_b']:.4g}")
     print("  per panorama (medians, A -> B):")
     for p in res["per_panorama"]:
         print(f"    {p['file']:32s} " + "  ".join(
-            f"{s} {p[s][0]:.4g} -> {p[s][1]:.4g}" for s in SCORES))
+            f"{s} {p[s][0]:.4g} -> {p[s][1]:.4g}" for s in SCORES) + (
+            f"  key light {p['key_light_angle_deg'][0]:.4g} -> {p['key_light_angle_deg'][1]:.4g}"
+            if "key_light_angle_deg" in p else ""))
     return 0
 
 
