@@ -67,10 +67,14 @@ boot() {
 }
 # device_broke: the failed boot is the emulated webcam's, not parlight's: the device's log shows
 # its control-request race (gadgetfs on dummy_hcd has no delayed status stage: docs/CAMERAS.md,
-# "Known limits of the UVC rig"), or uvcvideo never made /dev/video0, so parlight never ran.
+# "Known limits of the UVC rig": a SET_CUR overtaken, an ep0 request left pending, EIDRM or
+# EL2HLT, or a GET's reply refused because its request was gone), or uvcvideo never made
+# /dev/video0, so parlight never ran.
+RACE='uvc-gadget: \(SET_CUR overtaken\|ep0: Identifier removed\|ep0: Level 2 halted'
+RACE+='\|GET reply: Identifier removed\)'
 device_broke() {
     [ $rc -ne 0 ] && [ $rc -ne 3 ] &&
-        { grep -q "uvc-gadget: SET_CUR overtaken\|uvc-gadget: ep0: Identifier removed" "$T/log.txt" ||
+        { grep -q "$RACE" "$T/log.txt" ||
             grep -q "^@@ERROR uvcvideo made no /dev/video0" "$T/results.txt" 2>/dev/null; }
 }
 boot
