@@ -46,7 +46,7 @@ typedef struct pl_fuse_view {
     int n;                        /* lights kept, 0 = empty bin */
     double t_s;                   /* when it was added */
     double dir[PL_MAX_LIGHTS][3]; /* world space, unit */
-    double w[PL_MAX_LIGHTS];      /* lum(c_i) / the view's total light energy */
+    double w[PL_MAX_LIGHTS];      /* peak: share of the view's light energy / lobe integral */
     double lambda[PL_MAX_LIGHTS]; /* 1 / sigma_i = 4 pi / s_i */
 } pl_fuse_view;
 
