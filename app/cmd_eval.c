@@ -478,58 +478,56 @@ static int put_table(FILE *f, const pl_eval_scores *s, int n, int have_ridge, do
     return 0;
 }
 
-/* Key light over each room's views: per method (model, ridge) the statistics over rooms of the
- * fused key light's angle (kind 0) and of each room's median single-crop angle (kind 1). buf:
- * crops + n_rows values. */
-static int key_stats(const pano_row *rows, int n_rows, int crops, int ridge, int kind, double *buf,
-                     pl_eval_stats *out)
+/* Key light over each room's views, for one method (model, or ridge when `ridge`): the
+ * statistics over rooms of the fused key light's angle (st[0]) and of each room's median
+ * single-crop angle (st[1]). buf: crops + 2 n_rows values. */
+static int key_stats(const pano_row *rows, int n_rows, int crops, int ridge, double *buf,
+                     pl_eval_stats st[2])
 {
+    double *fused = buf + crops, *single = fused + n_rows;
     for (int r = 0; r < n_rows; r++) {
         pl_eval_stats room;
         int rc = stats_of(rows[r].s, crops, ridge ? PL_EVAL_RIDGE : PL_EVAL_MODEL, 2, NULL, 0, buf,
                           &room);
         if (rc < 0) return rc;
-        buf[crops + r] = kind == 0 ? rows[r].key_angle[ridge] : room.median;
+        fused[r] = rows[r].key_angle[ridge];
+        single[r] = room.median;
     }
-    return pl_eval_quartiles(buf + crops, n_rows, out);
+    int rc = pl_eval_quartiles(fused, n_rows, &st[0]);
+    return rc < 0 ? rc : pl_eval_quartiles(single, n_rows, &st[1]);
 }
 
-static int put_key_lights(FILE *f, const pano_row *rows, int n_rows, int crops, int have_ridge,
-                          double *buf)
+/* The key-light table (text), or its "key_light_over_views" object (json). */
+static int put_key_lights(FILE *f, int json, const pano_row *rows, int n_rows, int crops,
+                          int have_ridge, double *buf)
 {
-    char h[2][96];
-    snprintf(h[0], sizeof h[0], "key light, %d room%s", n_rows, n_rows == 1 ? "" : "s");
-    snprintf(h[1], sizeof h[1], "fused over %d views, deg", crops);
-    fprintf(f, "  %-24s  %-28s  %s\n", h[0], h[1], "single crops, room medians, deg");
-    for (int m = 0; m <= have_ridge; m++) {
-        fprintf(f, "  %-24s", pl_eval_method_label(m ? PL_EVAL_RIDGE : PL_EVAL_MODEL));
-        for (int kind = 0; kind < 2; kind++) {
-            pl_eval_stats st;
-            int rc = key_stats(rows, n_rows, crops, m, kind, buf, &st);
-            if (rc < 0) return rc;
-            put_cell(f, &st, kind == 0 ? 28 : 0);
-        }
-        fputc('\n', f);
+    if (json) {
+        fprintf(f, "{\"rooms\":%d,\"views\":%d", n_rows, crops);
+    } else {
+        char h[2][96];
+        snprintf(h[0], sizeof h[0], "key light, %d room%s", n_rows, n_rows == 1 ? "" : "s");
+        snprintf(h[1], sizeof h[1], "fused over %d views, deg", crops);
+        fprintf(f, "  %-24s  %-28s  %s\n", h[0], h[1], "single crops, room medians, deg");
     }
-    return 0;
-}
-
-static int put_key_lights_json(FILE *f, const pano_row *rows, int n_rows, int crops,
-                               int have_ridge, double *buf)
-{
-    fprintf(f, "{\"rooms\":%d,\"views\":%d", n_rows, crops);
     for (int m = 0; m <= have_ridge; m++) {
-        fprintf(f, ",\"%s\":{", pl_eval_method_key(m ? PL_EVAL_RIDGE : PL_EVAL_MODEL));
-        for (int kind = 0; kind < 2; kind++) {
-            pl_eval_stats st;
-            int rc = key_stats(rows, n_rows, crops, m, kind, buf, &st);
-            if (rc < 0) return rc;
-            if (kind) fputc(',', f);
-            put_stats_json(f, kind == 0 ? "fused_angle_deg" : "room_median_angle_deg", &st, 1);
+        const int method = m ? PL_EVAL_RIDGE : PL_EVAL_MODEL;
+        pl_eval_stats st[2];
+        int rc = key_stats(rows, n_rows, crops, m, buf, st);
+        if (rc < 0) return rc;
+        if (json) {
+            fprintf(f, ",\"%s\":{", pl_eval_method_key(method));
+            put_stats_json(f, "fused_angle_deg", &st[0], 1);
+            fputc(',', f);
+            put_stats_json(f, "room_median_angle_deg", &st[1], 1);
+            fputc('}', f);
+        } else {
+            fprintf(f, "  %-24s", pl_eval_method_label(method));
+            put_cell(f, &st[0], 28);
+            put_cell(f, &st[1], 0);
+            fputc('\n', f);
         }
-        fputc('}', f);
     }
-    fputc('}', f);
+    if (json) fputc('}', f);
     return 0;
 }
 
@@ -705,7 +703,7 @@ int cmd_eval(int argc, char **argv)
     const int n_crops = n_rows * crops;
     pl_eval_scores *all = malloc((size_t)n_crops * PL_EVAL_N_METHODS * sizeof *all);
     signed char *all_in_view = malloc((size_t)n_crops);
-    buf = malloc(((size_t)n_crops + (size_t)crops + (size_t)n_rows) * sizeof *buf);
+    buf = malloc(((size_t)n_crops + (size_t)crops + 2 * (size_t)n_rows) * sizeof *buf);
     if (!all || !all_in_view || !buf) {
         free(all);
         free(all_in_view);
@@ -754,7 +752,7 @@ int cmd_eval(int argc, char **argv)
         if (rc == 0)
             rc = put_angle_by_view_json(stdout, all, all_in_view, n_crops, ridge != NULL, buf);
         printf(",\"key_light_over_views\":");
-        if (rc == 0) rc = put_key_lights_json(stdout, rows, n_rows, crops, ridge != NULL, buf);
+        if (rc == 0) rc = put_key_lights(stdout, 1, rows, n_rows, crops, ridge != NULL, buf);
         printf(",\"panoramas\":[");
         for (int r = 0; r < n_rows && rc == 0; r++) {
             const pano_row *pr = &rows[r];
@@ -789,7 +787,7 @@ int cmd_eval(int argc, char **argv)
         if (ridge) printf("  (d) ridge: %s\n", ridge_path);
         rc = put_table(stdout, all, n_crops, ridge != NULL, buf);
         if (rc == 0) rc = put_angle_by_view(stdout, all, all_in_view, n_crops, ridge != NULL, buf);
-        if (rc == 0) rc = put_key_lights(stdout, rows, n_rows, crops, ridge != NULL, buf);
+        if (rc == 0) rc = put_key_lights(stdout, 0, rows, n_rows, crops, ridge != NULL, buf);
         for (int r = 0; r < n_rows && per_pano && rc == 0; r++) {
             printf("\n%s (%dx%d, %d ground-truth light%s)\n", rows[r].file, rows[r].width,
                    rows[r].height, rows[r].n_gt_lights, rows[r].n_gt_lights == 1 ? "" : "s");
