@@ -2,6 +2,7 @@
  * median, min and max milliseconds per frame, the instruction-set path, threads, GMAC/s and the
  * peak RSS. tools/bench/run.sh (`make bench`) runs it beside the peers (docs/PERFORMANCE.md). */
 #include <getopt.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -109,6 +110,37 @@ static int cmp_double(const void *a, const void *b)
 static double median_sorted(const double *v, int n)
 {
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* What `estimate --fuse` adds to a frame at most: pl_key_fuser_get with every heading bin
+ * holding a view (8 yaws x 3 pitches, here the bench frame's lights seen from each), the median
+ * of FUSE_RUNS calls in milliseconds; < 0 on an error. */
+#define FUSE_HEADINGS 24
+#define FUSE_RUNS 21
+static double key_fuser_ms(const pl_lighting *L)
+{
+    pl_key_fuser *k = NULL;
+    if (pl_key_fuser_new(0, &k) < 0) return -1;
+    for (int v = 0; v < FUSE_HEADINGS; v++) {
+        const double yaw = (v % 8) * (M_PI / 4), pitch = (v / 8 - 1) * (M_PI / 4);
+        const double cy = cos(yaw), sy = sin(yaw), cp = cos(pitch), sp = sin(pitch);
+        /* camera-to-world: yaw about y after pitch about x */
+        const double R[9] = {cy, sy * sp, sy * cp, 0, cp, -sp, -sy, cy * sp, cy * cp};
+        if (pl_key_fuser_add(k, L, R, 0) < 0) {
+            pl_key_fuser_free(k);
+            return -1;
+        }
+    }
+    double t[FUSE_RUNS];
+    pl_key_light key;
+    for (int i = 0; i < FUSE_RUNS; i++) {
+        const int64_t t0 = pl_now_ns();
+        pl_key_fuser_get(k, 0, &key);
+        t[i] = (double)(pl_now_ns() - t0) * 1e-6;
+    }
+    pl_key_fuser_free(k);
+    qsort(t, FUSE_RUNS, sizeof *t, cmp_double);
+    return median_sorted(t, FUSE_RUNS);
 }
 
 static void json_string(const char *s)
@@ -272,6 +304,11 @@ int cmd_bench(int argc, char **argv)
     const double med = median_sorted(total, runs), med_infer = median_sorted(infer, runs);
     const double med_cpu = median_sorted(cpu, runs);
     const double gmac = (double)macs * 1e-9, gmacs = med > 0 ? gmac / (med * 1e-3) : 0;
+    const double fuse_ms = key_fuser_ms(&L);
+    if (fuse_ms < 0) {
+        fprintf(stderr, "parlight bench: key fuser: %s\n", pl_last_error());
+        goto out;
+    }
     struct rusage ru;
     long rss_kib = getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_maxrss : -1;
 
@@ -285,8 +322,9 @@ int cmd_bench(int argc, char **argv)
         json_string(input ? input : "synthetic");
         printf(",\"median_ms\":%.4f,\"min_ms\":%.4f,\"max_ms\":%.4f,\"mean_ms\":%.4f,"
                "\"median_infer_ms\":%.4f,\"median_cpu_ms\":%.4f,\"gmac_per_frame\":%.6f,"
-               "\"gmac_per_s\":%.3f,\"peak_rss_kib\":%ld",
-               med, total[0], total[runs - 1], mean, med_infer, med_cpu, gmac, gmacs, rss_kib);
+               "\"gmac_per_s\":%.3f,\"peak_rss_kib\":%ld,\"key_fuser_get_ms\":%.4f",
+               med, total[0], total[runs - 1], mean, med_infer, med_cpu, gmac, gmacs, rss_kib,
+               fuse_ms);
         if (layers) {
             printf(",\"stage_clock\":\"%s\",\"stages\":[", layers == 2 ? "thread_cpu" : "wall");
             for (int s = 0; s < PL_PROF_N; s++)
@@ -309,6 +347,8 @@ int cmd_bench(int argc, char **argv)
         printf("CPU        %.3f ms/frame, median, all threads\n", med_cpu);
         printf("GMAC/s     %.1f (%.3f GMAC per frame, at the median)\n", gmacs, gmac);
         printf("peak RSS   %.1f MiB\n", (double)rss_kib / 1024.0);
+        printf("key fuser  %.3f ms per pl_key_fuser_get, all %d headings kept (estimate --fuse)\n",
+               fuse_ms, FUSE_HEADINGS);
         if (layers) {
             double sum = 0;
             for (int s = 0; s < PL_PROF_N; s++)

@@ -14,7 +14,6 @@
 #include "app/thumb.h"
 #include "core/ratelimit.h"
 #include "core/util.h"
-#include "light/fuse.h"
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "light/pose.h"
@@ -516,7 +515,7 @@ int cmd_estimate(int argc, char **argv)
     pl_sinks *sinks = NULL;
     pl_capture *cap = NULL;
     pl_smoother smoother;
-    pl_fuser fuser;        /* --fuse */
+    pl_key_fuser *fuser = NULL; /* --fuse */
     double fuse_t = 0;     /* its clock: the filter's, summed */
     int rc = 1;
     if (alpha < 0) alpha = camera ? PL_SMOOTH_DEFAULT_ALPHA : 1.0f;
@@ -524,7 +523,6 @@ int cmd_estimate(int argc, char **argv)
         fprintf(stderr, "parlight estimate: --smooth: %s\n", pl_last_error());
         return 2;
     }
-    pl_fuser_init(&fuser, fuse_age > 0 ? fuse_age : 0);
     long long done = 0, skipped = 0, done_at_pass = 0;
     int64_t frame_base = 0, pass_frames = 0; /* --loop: frame numbers go on across passes */
     pl_ratelimit warn_limit, event_limit;    /* a storm prints a few lines and a count */
@@ -546,6 +544,10 @@ int cmd_estimate(int argc, char **argv)
     if (poses_path && cli_poses_load(poses_path, &poses) < 0) {
         fprintf(stderr, "parlight estimate: --poses %s\n", pl_last_error());
         return 2;
+    }
+    if (fuse_age >= 0 && pl_key_fuser_new(fuse_age, &fuser) < 0) {
+        fprintf(stderr, "parlight estimate: --fuse: %s\n", pl_last_error());
+        goto out;
     }
     int st_open = pl_sinks_open(outs, n_outs, &sink_opts, &sinks);
     if (st_open < 0) {
@@ -615,7 +617,7 @@ int cmd_estimate(int argc, char **argv)
             const pl_model *before = model;
             reload_model(model_path, threads, have_anchor ? anchor : NULL, alpha, &model,
                          &smoother);
-            if (model != before) pl_fuser_reset(&fuser); /* another model's views */
+            if (model != before) pl_key_fuser_reset(fuser); /* another model's views */
         }
         pl_frame fr;
         int64_t dropped = 0;
@@ -701,15 +703,14 @@ int cmd_estimate(int argc, char **argv)
                     fr.name);
             goto out;
         }
-        float key[3];
-        int key_views = 0;
-        if (fuse_age >= 0) {
+        pl_key_light key;
+        if (fuser) {
             fuse_t += dt_s;
-            if (pl_fuser_add(&fuser, &L_cam, R, fuse_t) < 0) {
+            if (pl_key_fuser_add(fuser, &L_cam, R, fuse_t) < 0 ||
+                pl_key_fuser_get(fuser, fuse_t, &key) < 0) {
                 fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
                 goto out;
             }
-            pl_fuser_key(&fuser, fuse_t, key, &key_views); /* no view with light: 0 views */
         }
         const double total_ms = (double)(pl_now_ns() - t0) / 1e6;
         const char *desc = pl_source_describe(src);
@@ -722,16 +723,8 @@ int cmd_estimate(int argc, char **argv)
         if (fr.index + 1 > pass_frames) pass_frames = fr.index + 1;
         const pl_frame_meta meta = {frame_base + fr.index, fr.t_ns, source, orient,
                                     tm, total_ms, latency_ms, dropped};
-        int len = pl_frame_format_json(&meta, &L, line, sizeof line);
-        if (len >= 2 && fuse_age >= 0) { /* "key_light" goes last: before the closing "}\n" */
-            int w = key_views
-                        ? snprintf(line + len - 2, sizeof line - (size_t)len + 2,
-                                   ",\"key_light\":{\"dir\":[%.6g,%.6g,%.6g],\"views\":%d}}\n",
-                                   (double)key[0], (double)key[1], (double)key[2], key_views)
-                        : snprintf(line + len - 2, sizeof line - (size_t)len + 2,
-                                   ",\"key_light\":null}\n");
-            len = w > 0 && (size_t)w < sizeof line - (size_t)len + 2 ? len - 2 + w : -1;
-        }
+        int len = fuser ? pl_frame_format_json_key(&meta, &L, &key, line, sizeof line)
+                        : pl_frame_format_json(&meta, &L, line, sizeof line);
         if (len < 0) {
             fprintf(stderr, "parlight estimate: internal error: JSON line too long\n");
             goto out;
@@ -785,5 +778,6 @@ out:
     pl_sinks_close(sinks);
     pl_source_close(src);
     pl_model_free(model);
+    pl_key_fuser_free(fuser);
     return rc;
 }

@@ -1,4 +1,5 @@
 /* The per-frame JSON line (docs/OUTPUT.md), the one the CLI prints (include/parlight.h). */
+#include <math.h>
 #include <stdio.h>
 
 #include "core/util.h"
@@ -59,4 +60,28 @@ int pl_frame_format_json(const pl_frame_meta *m, const pl_lighting *L, char *buf
     return (int)n;
 too_small:
     return pl_error(PL_E_ARG, "pl_frame_format_json: the line does not fit in %zu bytes", cap);
+}
+
+int pl_frame_format_json_key(const pl_frame_meta *m, const pl_lighting *L, const pl_key_light *key,
+                             char *buf, size_t cap)
+{
+    if (!key) return pl_error(PL_E_ARG, "pl_frame_format_json_key: NULL key");
+    if (key->views < 0 || !isfinite(key->dir[0]) || !isfinite(key->dir[1]) ||
+        !isfinite(key->dir[2]))
+        return pl_error(PL_E_ARG, "pl_frame_format_json_key: the key light is not finite or its "
+                                  "views are negative");
+    int len = pl_frame_format_json(m, L, buf, cap);
+    if (len < 0) return len;
+    /* "key_light" goes last: over the closing "}\n" */
+    size_t at = (size_t)len - 2, room = cap - at;
+    int w;
+    if (key->views > 0)
+        w = snprintf(buf + at, room, ",\"key_light\":{\"dir\":[%.6g,%.6g,%.6g],\"views\":%d}}\n",
+                     (double)key->dir[0], (double)key->dir[1], (double)key->dir[2], key->views);
+    else
+        w = snprintf(buf + at, room, ",\"key_light\":null}\n");
+    if (w < 0 || (size_t)w >= room)
+        return pl_error(PL_E_ARG, "pl_frame_format_json_key: the line does not fit in %zu bytes",
+                        cap);
+    return (int)(at + (size_t)w);
 }

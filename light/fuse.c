@@ -2,6 +2,7 @@
 #include "light/fuse.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/status.h"
@@ -94,6 +95,14 @@ static int live(const pl_fuser *f, const pl_fuse_view *v, double t_s)
     return v->n > 0 && (f->max_age_s <= 0 || t_s - v->t_s <= f->max_age_s);
 }
 
+static int live_views(const pl_fuser *f, double t_s)
+{
+    int n = 0;
+    for (int b = 0; b < PL_FUSE_BINS; b++)
+        n += live(f, &f->bins[b], t_s);
+    return n;
+}
+
 /* E(u), and its gradient in R^3 into g when g is not NULL. */
 static double map_at(const pl_fuser *f, double t_s, const double u[3], double g[3])
 {
@@ -116,13 +125,11 @@ static double map_at(const pl_fuser *f, double t_s, const double u[3], double g[
 
 int pl_fuser_key(const pl_fuser *f, double t_s, float dir[3], int *views)
 {
-    int n = 0;
     dir[0] = 0, dir[1] = 1, dir[2] = 0;
     if (views) *views = 0;
     if (!f || !isfinite(t_s))
         return pl_error(PL_E_ARG, "fuse: no fuser or a time that is not finite");
-    for (int b = 0; b < PL_FUSE_BINS; b++)
-        n += live(f, &f->bins[b], t_s);
+    int n = live_views(f, t_s);
     if (n == 0) return pl_error(PL_E_ARG, "fuse: no view with light yet");
 
     /* the best grid direction: a Fibonacci sphere (golden-angle spiral, equal areas) */
@@ -152,4 +159,52 @@ int pl_fuser_key(const pl_fuser *f, double t_s, float dir[3], int *views)
         dir[k] = (float)best[k];
     if (views) *views = n;
     return 0;
+}
+
+/* ---- the public face (include/parlight.h): the same fuser behind an opaque handle ---------- */
+
+struct pl_key_fuser {
+    pl_fuser f;
+};
+
+int pl_key_fuser_new(double max_age_s, pl_key_fuser **out)
+{
+    if (!out) return pl_error(PL_E_ARG, "pl_key_fuser_new: NULL out");
+    *out = NULL;
+    pl_fuser f;
+    int rc = pl_fuser_init(&f, max_age_s);
+    if (rc < 0) return rc;
+    pl_key_fuser *k = malloc(sizeof *k);
+    if (!k) return pl_error(PL_E_NOMEM, "pl_key_fuser_new: out of memory (%zu bytes)", sizeof *k);
+    k->f = f;
+    *out = k;
+    return 0;
+}
+
+void pl_key_fuser_free(pl_key_fuser *fuser)
+{
+    free(fuser);
+}
+
+void pl_key_fuser_reset(pl_key_fuser *fuser)
+{
+    if (fuser) pl_fuser_reset(&fuser->f);
+}
+
+int pl_key_fuser_add(pl_key_fuser *fuser, const pl_lighting *cam, const double R[9], double t_s)
+{
+    if (!fuser) return pl_error(PL_E_ARG, "pl_key_fuser_add: NULL fuser");
+    return pl_fuser_add(&fuser->f, cam, R, t_s);
+}
+
+int pl_key_fuser_get(const pl_key_fuser *fuser, double t_s, pl_key_light *out)
+{
+    if (!fuser || !out) return pl_error(PL_E_ARG, "pl_key_fuser_get: NULL argument");
+    if (!isfinite(t_s)) return pl_error(PL_E_ARG, "pl_key_fuser_get: time %g s is not finite", t_s);
+    if (live_views(&fuser->f, t_s) == 0) { /* not an error for an app: nothing seen yet */
+        out->dir[0] = 0, out->dir[1] = 1, out->dir[2] = 0;
+        out->views = 0;
+        return 0;
+    }
+    return pl_fuser_key(&fuser->f, t_s, out->dir, &out->views);
 }

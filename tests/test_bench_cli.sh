@@ -38,7 +38,7 @@ Q="$T/q.plm"
 
 # --- text output: every line present ---
 "$P" bench --model "$M" --runs 2 --warmup 0 >"$T/text" 2>"$T/err" || fail "bench fp32: $(cat "$T/err")"
-for k in model frame isa threads runs median min max CPU GMAC/s "peak RSS"; do
+for k in model frame isa threads runs median min max CPU GMAC/s "peak RSS" "key fuser"; do
     grep -q "^$k " "$T/text" || fail "text output lacks '$k': $(cat "$T/text")"
 done
 grep -q "^runs       2 after 0 warm-up" "$T/text" || fail "runs line: $(cat "$T/text")"
@@ -62,8 +62,9 @@ f32, s8, img = load("f32.json"), load("s8.json"), load("img.json")
 for o, prec, thr, runs in ((f32, "fp32", 1, 3), (s8, "int8", 2, 4), (img, "int8", 1, 2)):
     for k in ("median_ms", "min_ms", "max_ms", "isa", "threads", "runs", "warmup", "precision",
               "gmac_per_frame", "gmac_per_s", "peak_rss_kib", "median_infer_ms", "mean_ms",
-              "median_cpu_ms"):
+              "median_cpu_ms", "key_fuser_get_ms"):
         assert k in o, (k, o)
+    assert 0 < o["key_fuser_get_ms"] < 1000, o  # estimate --fuse's worst case a frame
     assert o["precision"] == prec and o["threads"] == thr and o["runs"] == runs, o
     assert o["isa"] in isas, o["isa"]
     assert 0 < o["min_ms"] <= o["median_ms"] <= o["max_ms"], o

@@ -2,9 +2,12 @@
  * camera's rotation; a light seen from three headings wins over a brighter lobe that stays put
  * in every camera frame (what one frame cannot tell apart); a camera that dwells on one heading
  * counts once; views expire by age; a view's exposure does not matter; a light smaller than the
- * search grid's spacing is still found; bad arguments are refused and leave the state alone. */
+ * search grid's spacing is still found; bad arguments are refused and leave the state alone.
+ * The public handle (pl_key_fuser_*, include/parlight.h) gives the internal fuser's answer bit
+ * for bit, and pl_frame_format_json_key writes it as the CLI does. */
 #include <string.h>
 
+#include "core/json.h"
 #include "core/status.h"
 #include "light/fuse.h"
 #include "light/light.h"
@@ -211,6 +214,99 @@ static void test_bad_args(void)
           "a view without light energy holds no key light");
 }
 
+/* The public face: the triangulation of test_triangulation through pl_key_fuser_*, equal to the
+ * internal fuser's key bit for bit; an empty fuser answers views 0 without an error; refusals. */
+static void test_public_api(void)
+{
+    pl_key_fuser *k = (pl_key_fuser *)1;
+    CHECK(pl_key_fuser_new(-1, &k) == PL_E_ARG && k == NULL, "a negative max age is refused");
+    CHECK(pl_key_fuser_new(NAN, &k) == PL_E_ARG && k == NULL, "a NaN max age is refused");
+    CHECK(pl_key_fuser_new(0, NULL) == PL_E_ARG, "NULL out is refused");
+    CHECK(pl_key_fuser_new(0, &k) == 0 && k, "new: %s", pl_last_error());
+    pl_key_light key = {{9, 9, 9}, 9};
+    pl_error(PL_E_ARG, "sentinel");
+    CHECK(pl_key_fuser_get(k, 0, &key) == 0 && key.views == 0 && key.dir[1] == 1 &&
+              key.dir[0] == 0 && key.dir[2] == 0 && !strcmp(pl_last_error(), "sentinel"),
+          "empty: views 0, dir (0, 1, 0), no error set");
+    CHECK(pl_key_fuser_get(k, NAN, &key) == PL_E_ARG, "a NaN time is refused");
+    CHECK(pl_key_fuser_get(NULL, 0, &key) == PL_E_ARG && pl_key_fuser_get(k, 0, NULL) == PL_E_ARG,
+          "NULL arguments are refused");
+
+    pl_fuser f;
+    pl_fuser_init(&f, 0);
+    double light[3] = {0.8, 0.3, 0.2}, R[9], c[3];
+    for (int v = 0; v < 3; v++) {
+        pl_lighting L = {0};
+        heading_R(v * 2 * M_PI / 3, R);
+        to_cam(R, light, c);
+        L.n_lights = 2;
+        L.lights[0] = lobe(0.6, 0.4, -0.7, 2.5f, 0.55f);
+        L.lights[1] = lobe(c[0], c[1], c[2], 2.5f, 0.45f);
+        pl_fuser_add(&f, &L, R, v);
+        CHECK(pl_key_fuser_add(k, &L, R, v) == 0, "public add %d", v);
+    }
+    float ref[3];
+    int ref_views;
+    pl_fuser_key(&f, 3, ref, &ref_views);
+    CHECK(pl_key_fuser_get(k, 3, &key) == 0 && key.views == 3 && ref_views == 3 &&
+              !memcmp(key.dir, ref, sizeof ref),
+          "the public key is the internal one, bit for bit");
+    CHECK(deg_between(key.dir, light) < 3, "and it is the room's light (%.2f deg)",
+          deg_between(key.dir, light));
+
+    pl_lighting bad = {0};
+    bad.n_lights = 1;
+    bad.lights[0] = lobe(0, 1, 0, 1.0f, 1.0f);
+    bad.lights[0].distance_m = NAN;
+    double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    CHECK(pl_key_fuser_add(k, &bad, I, 4) == PL_E_ARG, "a bad lighting is refused");
+    CHECK(pl_key_fuser_add(NULL, &bad, I, 4) == PL_E_ARG, "a NULL fuser is refused");
+    pl_key_light again;
+    pl_key_fuser_get(k, 3, &again);
+    CHECK(again.views == 3 && !memcmp(again.dir, key.dir, sizeof key.dir),
+          "a refused frame leaves the fuser as it was");
+
+    /* the JSON line with the key light: the plain line with one member more, last */
+    pl_lighting L = {0};
+    L.n_lights = 1;
+    L.lights[0] = lobe(0, 1, 0, 1.0f, 1.0f);
+    pl_frame_meta m = {3, 42, "dir:x", NULL, {1, 2}, 3, -1, 0};
+    char plain[16384], line[16384];
+    int n0 = pl_frame_format_json(&m, &L, plain, sizeof plain);
+    int n = pl_frame_format_json_key(&m, &L, &key, line, sizeof line);
+    CHECK(n0 > 2 && n > n0 && !strncmp(plain, line, (size_t)n0 - 2) && line[n - 1] == '\n' &&
+              (size_t)n == strlen(line),
+          "the key line extends the plain one (%d, %d)", n0, n);
+    pl_json_doc doc;
+    CHECK(pl_json_parse(line, (size_t)n, "line", &doc) == 0, "it parses: %s", pl_last_error());
+    const pl_json_value *kl = pl_json_get(&doc.root, "key_light");
+    const pl_json_value *dir = kl ? pl_json_get(kl, "dir") : NULL;
+    const pl_json_value *views = kl ? pl_json_get(kl, "views") : NULL;
+    CHECK(dir && dir->type == PL_JSON_ARRAY && dir->len == 3 && views && views->number == 3,
+          "key_light {dir[3], views 3}");
+    for (int i = 0; dir && i < 3; i++)
+        CHECK(fabs(dir->items[i].number - key.dir[i]) < 1e-5, "key_light.dir[%d]", i);
+    pl_json_free(&doc);
+    pl_key_light none = {{0, 1, 0}, 0};
+    n = pl_frame_format_json_key(&m, &L, &none, line, sizeof line);
+    CHECK(n > 0 && strstr(line, ",\"key_light\":null}\n"), "views 0: \"key_light\":null");
+    int need = pl_frame_format_json_key(&m, &L, &key, line, sizeof line);
+    CHECK(pl_frame_format_json_key(&m, &L, &key, line, (size_t)need) == PL_E_ARG,
+          "a buffer one byte short is refused");
+    CHECK(pl_frame_format_json_key(&m, &L, &key, line, (size_t)need + 1) == need, "exact fit");
+    pl_key_light nan_key = {{NAN, 0, 0}, 1}, neg = {{0, 1, 0}, -1};
+    CHECK(pl_frame_format_json_key(&m, &L, &nan_key, line, sizeof line) == PL_E_ARG &&
+              pl_frame_format_json_key(&m, &L, &neg, line, sizeof line) == PL_E_ARG &&
+              pl_frame_format_json_key(&m, &L, NULL, line, sizeof line) == PL_E_ARG,
+          "a key light that is not finite, negative views or NULL are refused");
+
+    pl_key_fuser_reset(k);
+    CHECK(pl_key_fuser_get(k, 3, &key) == 0 && key.views == 0, "reset forgets every frame");
+    pl_key_fuser_reset(NULL);
+    pl_key_fuser_free(k);
+    pl_key_fuser_free(NULL);
+}
+
 int main(void)
 {
     test_one_lobe();
@@ -219,6 +315,7 @@ int main(void)
     test_age();
     test_small_light();
     test_bad_args();
+    test_public_api();
     if (failures) {
         printf("%d failure(s)\n", failures);
         return 1;
