@@ -53,6 +53,14 @@ for model in parlight-n3 parlight-n3-int8; do
 done
 expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --input "$T/png" --orientation "$POSE" --at 0.5,0.25,-1
 cp "$T/out" "$T/cli-parlight-n3-int8-pose-at.jsonl"
+# The key light over views: frame i turned by 90 i degrees about y (json.dumps writes each
+# float's shortest exact form, so the CLI and Python read the same doubles).
+"$PY" -c 'import json, math
+for i in range(32):
+    a = math.radians(90 * i)
+    print(json.dumps({"frame": i, "q": [math.cos(a / 2), 0, -math.sin(a / 2), 0]}))' >"$T/poses.jsonl"
+expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --input "$T/png" --poses "$T/poses.jsonl" --fuse 0
+cp "$T/out" "$T/cli-fuse.jsonl"
 
 timeout 600 env PYTHONPATH=python PARLIGHT_LIB="$LIB" "$PY" - "$T" "$POSE" "$LIB" <<'PY' >"$T/py.log" 2>&1
 import glob, json, math, os, sys
@@ -145,6 +153,54 @@ with Model(int8) as m:
     (ok if same(m.estimate(rgb), ref) else fail)("the model still estimates after the refused calls")
     raises("threads=0", ParlightError, "thread", lambda: Model(int8, threads=0))
 raises("estimate on a closed model", ValueError, "closed", lambda: m.estimate(rgb))
+
+# KeyFuser: estimate(..., fuse=k) gives the CLI's --poses --fuse lines (key_light included), and
+# the CLI's own camera-space lines replayed through KeyFuser.add give the same key light.
+with open(os.path.join(T, "poses.jsonl")) as f:
+    poses = [json.loads(l)["q"] for l in f]
+with open(os.path.join(T, "cli-fuse.jsonl")) as f:
+    cli = [json.loads(l) for l in f]
+with open(os.path.join(T, "cli-parlight-n3-int8.jsonl")) as f:
+    cam = [json.loads(l) for l in f]
+with Model(int8) as m, parlight.KeyFuser(0) as k, parlight.KeyFuser(0) as k2:
+    (ok if k.key(0) is None else fail)("an empty KeyFuser has no key light (None)")
+    for i, (rgb_i, c) in enumerate(zip(frames, cli)):
+        py = m.estimate(rgb_i, pose=poses[i], fuse=k, frame=i)
+        kl = k2.add(cam[i], poses[i], i)
+        views = min(i + 1, 4)  # four headings, 90 degrees apart
+        if same(py, c) and py["key_light"]["views"] == views:
+            ok(f"fuse: frame {i}: the CLI's line, key_light {py['key_light']}")
+        else:
+            fail(f"fuse: frame {i}: Python {json.dumps(py)}\n   CLI {json.dumps(c)}")
+        if kl and [float("%.6g" % v) for v in kl["dir"]] == c["key_light"]["dir"] and \
+                kl["views"] == views:
+            ok(f"fuse: frame {i}: KeyFuser.add of the CLI's camera line gives its key light")
+        else:
+            fail(f"fuse: frame {i}: KeyFuser.add gave {kl}, the CLI {c['key_light']}")
+    raises("fuse without a pose", ValueError, "pose", lambda: m.estimate(rgb, fuse=k))
+    raises("fuse not a KeyFuser", TypeError, "KeyFuser", lambda: m.estimate(rgb, pose=POSE, fuse=3))
+    raises("a NaN fuse_t", ValueError, "finite", lambda: m.estimate(rgb, pose=POSE, fuse=k,
+                                                                     fuse_t=math.nan))
+    raises("add a world-space line", ValueError, "camera space", lambda: k2.add(cli[0], POSE, 0))
+    raises("add a line without lights", ValueError, "lights", lambda: k2.add({"ambient": [0, 0, 0]}, POSE, 0))
+    raises("add a light without rgb", ValueError, "rgb[3]", lambda: k2.add(
+        {"lights": [{"dir": [0, 1, 0], "distance_m": 1, "solid_angle_sr": 1}]}, POSE, 0))
+    bad = json.loads(json.dumps(cam[0]))
+    bad["lights"][0]["solid_angle_sr"] = -1
+    raises("add a negative solid angle", ParlightError, "solid", lambda: k2.add(bad, POSE, 0))
+    raises("add a non-unit pose", ValueError, "pose", lambda: k2.add(cam[0], (2, 0, 0, 0), 0))
+    raises("key at NaN", ValueError, "finite", lambda: k2.key(math.nan))
+    before = k2.key(99)
+    (ok if before and before["views"] == 4 else fail)(f"refused adds left the fuser as it was: {before}")
+    k2.reset()
+    (ok if k2.key(99) is None else fail)("reset forgets every frame")
+raises("a negative max_age", ValueError, "max age", lambda: parlight.KeyFuser(-1))
+raises("max_age not a number", ValueError, "seconds", lambda: parlight.KeyFuser("soon"))
+raises("a closed KeyFuser", ValueError, "closed", lambda: k.key(0))
+k.close()  # twice is fine
+with parlight.KeyFuser(10) as ka:
+    ka.add(cam[0], (1, 0, 0, 0), 0)
+    (ok if ka.key(5) and ka.key(11) is None else fail)("max_age 10: a view at t 0 counts at 5, not at 11")
 m.close()  # twice is fine
 
 with Model(int8, threads=2) as m2:

@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-__all__ = ["Model", "ParlightError", "version", "load_library"]
+__all__ = ["Model", "KeyFuser", "ParlightError", "version", "load_library"]
 
 PL_MAX_LIGHTS = 16
 PL_E_ARG = -1
@@ -72,6 +72,10 @@ class _FrameMeta(ctypes.Structure):
                 ("latency_ms", ctypes.c_double), ("dropped", ctypes.c_int64)]
 
 
+class _KeyLight(ctypes.Structure):
+    _fields_ = [("dir", ctypes.c_float * 3), ("views", ctypes.c_int)]
+
+
 class _ModelInfo(ctypes.Structure):
     _fields_ = [("arch", ctypes.c_char_p), ("precision", ctypes.c_char_p),
                 ("provenance", ctypes.c_char_p), ("n_lights", ctypes.c_int),
@@ -103,6 +107,16 @@ _SIGNATURES = {  # name: (restype, argtypes), as declared in include/parlight.h
     "pl_frame_format_json": (ctypes.c_int, [ctypes.POINTER(_FrameMeta),
                                             ctypes.POINTER(_Lighting), ctypes.c_char_p,
                                             ctypes.c_size_t]),
+    "pl_frame_format_json_key": (ctypes.c_int, [ctypes.POINTER(_FrameMeta),
+                                                ctypes.POINTER(_Lighting),
+                                                ctypes.POINTER(_KeyLight), ctypes.c_char_p,
+                                                ctypes.c_size_t]),
+    "pl_key_fuser_new": (ctypes.c_int, [ctypes.c_double, ctypes.POINTER(_P)]),
+    "pl_key_fuser_free": (None, [_P]),
+    "pl_key_fuser_reset": (None, [_P]),
+    "pl_key_fuser_add": (ctypes.c_int, [_P, ctypes.POINTER(_Lighting),
+                                        ctypes.POINTER(ctypes.c_double), ctypes.c_double]),
+    "pl_key_fuser_get": (ctypes.c_int, [_P, ctypes.c_double, ctypes.POINTER(_KeyLight)]),
 }
 
 _libs = {}
@@ -173,6 +187,49 @@ def _as_rgb(rgb):
     if h < 8 or w < 8 or h > 2**31 - 1 or w > 2**31 - 1:
         raise ValueError(f"parlight: rgb is {w} x {h} pixels: at least 8 x 8 needed")
     return np.ascontiguousarray(rgb)
+
+
+def _as_time(t):
+    try:
+        v = float(t)
+    except (TypeError, ValueError):
+        raise ValueError(f"parlight: a time must be a number of seconds, not {t!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"parlight: a time must be finite, not {t!r}")
+    return v
+
+
+def _lighting_from_dict(d):
+    """A camera-space line's lights (estimate()'s dict, or a parsed `parlight estimate` line) as
+    a pl_lighting; ValueError naming what is missing or wrong."""
+    if not isinstance(d, dict):
+        raise TypeError(f"parlight: a lighting must be a dict (a JSON line), not {type(d).__name__}")
+    if d.get("space", "camera") != "camera":
+        raise ValueError(f"parlight: the lights must be in camera space (the line's \"space\" is "
+                         f"{d.get('space')!r}): add a frame estimated without a pose")
+    lights = d.get("lights")
+    if not isinstance(lights, list) or len(lights) > PL_MAX_LIGHTS:
+        raise ValueError(f"parlight: \"lights\" must be a list of at most {PL_MAX_LIGHTS} lights")
+    L = _Lighting()
+    L.n_lights = len(lights)
+    try:
+        for i, l in enumerate(lights):
+            L.lights[i].dir[:] = [float(v) for v in l["dir"]][:3]
+            if len(l["dir"]) != 3:
+                raise ValueError
+            L.lights[i].distance_m = float(l["distance_m"])
+            L.lights[i].solid_angle_sr = float(l["solid_angle_sr"])
+            if len(l["rgb"]) != 3:
+                raise ValueError
+            L.lights[i].rgb[:] = [float(v) for v in l["rgb"]]
+        amb = d.get("ambient", [0, 0, 0])
+        if len(amb) != 3:
+            raise ValueError
+        L.ambient[:] = [float(v) for v in amb]
+    except (KeyError, TypeError, ValueError, IndexError):
+        raise ValueError("parlight: each light needs dir[3], distance_m, solid_angle_sr and "
+                         "rgb[3] numbers, and ambient 3 numbers") from None
+    return L
 
 
 def _as_quat(pose):
@@ -267,7 +324,8 @@ class Model:
         out["anchor"] = list(info.anchor)
         return out
 
-    def estimate(self, rgb, pose=None, at=None, frame=0, t_ns=None, source=""):
+    def estimate(self, rgb, pose=None, at=None, frame=0, t_ns=None, source="", fuse=None,
+                 fuse_t=None):
         """Lighting of one frame, as the dict of `parlight estimate`'s JSON line.
 
         rgb     H x W x 3 numpy uint8 array, RGB order, at least 8 x 8 (copied when not
@@ -280,7 +338,16 @@ class Model:
                 world axes when a pose is given)
         frame, t_ns, source   the line's "frame", "t_ns" (default: time.time_ns()) and
                 "source" fields; timing_ms.total is measured around the library calls
+        fuse    None or a KeyFuser (needs pose): the frame's own lights join it at time fuse_t
+                (seconds; default t_ns / 1e9) and the line gets its "key_light", as the CLI's
+                --poses ... --fuse prints it
         """
+        if fuse is not None:
+            if not isinstance(fuse, KeyFuser):
+                raise TypeError(f"parlight: fuse must be a KeyFuser, not {type(fuse).__name__}")
+            if pose is None:
+                raise ValueError("parlight: fuse needs the camera's pose (pose=...): the key "
+                                 "light is fused in world space")
         a = _as_rgb(rgb)
         q = R = p = None
         if pose is not None:
@@ -302,6 +369,8 @@ class Model:
             raise ValueError(f"parlight: source is {len(src)} bytes, at most {_MAX_SOURCE}")
         if t_ns is None:
             t_ns = time.time_ns()
+        if fuse is not None:
+            fuse_t = t_ns / 1e9 if fuse_t is None else _as_time(fuse_t)
         L = _Lighting()
         tm = _Timing()
         h, w = a.shape[0], a.shape[1]
@@ -312,6 +381,9 @@ class Model:
                                             ctypes.byref(tm))
             if st < 0:
                 raise _error(self._lib, st)
+        key = None
+        if fuse is not None:  # the frame's own lights, camera frame (the CLI's order)
+            key = fuse._add_get(L, R, fuse_t)
         if R is not None:
             self._lib.pl_lighting_rotate(ctypes.byref(L), R, ctypes.byref(L))
         if p is not None:
@@ -322,7 +394,107 @@ class Model:
                           ctypes.cast(q, ctypes.POINTER(ctypes.c_double)) if q else None,
                           tm, (time.perf_counter_ns() - t0) / 1e6, -1.0, 0)
         buf = ctypes.create_string_buffer(_JSON_CAP)
-        n = self._lib.pl_frame_format_json(ctypes.byref(meta), ctypes.byref(L), buf, _JSON_CAP)
+        if key is None:
+            n = self._lib.pl_frame_format_json(ctypes.byref(meta), ctypes.byref(L), buf,
+                                               _JSON_CAP)
+        else:
+            n = self._lib.pl_frame_format_json_key(ctypes.byref(meta), ctypes.byref(L),
+                                                   ctypes.byref(key), buf, _JSON_CAP)
         if n < 0:
             raise _error(self._lib, n)
         return json.loads(buf.raw[:n].decode("utf-8"))
+
+
+class KeyFuser:
+    """The room's key light fused over the headings a camera has seen (pl_key_fuser_*,
+    docs/OUTPUT.md "Key light over views"): the CLI's `estimate --poses ... --fuse MAX_AGE`.
+
+        k = parlight.KeyFuser(max_age=30)            # seconds; 0: views never expire
+        f = m.estimate(rgb, pose=q, fuse=k)          # f["key_light"]: {"dir", "views"} or None
+        k.add(camera_line, pose=q, t=12.5)           # or a camera-space line from elsewhere
+        k.key(t=12.5)                                # {"dir": [x, y, z], "views": K} or None
+
+    It keeps the latest frame of each heading (8 yaw sectors x 3 pitch bands), each weighed
+    equally, and answers the world-space direction where their lights add up to the most. Like a
+    Model it locks around its calls; close() or a `with` block frees it."""
+
+    def __init__(self, max_age=0.0, lib=None):
+        self._lib = load_library(lib)
+        self._lock = threading.Lock()
+        self._k = None
+        k = _P()
+        st = self._lib.pl_key_fuser_new(_as_time(max_age), ctypes.byref(k))
+        if st < 0:
+            raise ValueError("parlight: max_age: " +
+                             self._lib.pl_last_error().decode("utf-8", "replace"))
+        self._k = k
+
+    def _handle(self):
+        if self._k is None:
+            raise ValueError("parlight: the key fuser is closed")
+        return self._k
+
+    def _add_get(self, L, R, t):
+        key = _KeyLight()
+        with self._lock:
+            k = self._handle()
+            st = self._lib.pl_key_fuser_add(k, ctypes.byref(L), R, t)
+            if st >= 0:
+                st = self._lib.pl_key_fuser_get(k, t, ctypes.byref(key))
+            if st < 0:
+                raise _error(self._lib, st)
+        return key
+
+    def add(self, lighting, pose, t):
+        """Adds a frame: lighting, a camera-space line (estimate() without a pose, or a parsed
+        `parlight estimate` line); pose, that frame's camera-to-world quaternion (w, x, y, z);
+        t, its time in seconds. Returns the key light after it, as key() does."""
+        L = _lighting_from_dict(lighting)
+        R = (ctypes.c_double * 9)()
+        if self._lib.pl_quat_to_rotation(_as_quat(pose), R) < 0:
+            raise ValueError("parlight: pose: " +
+                             self._lib.pl_last_error().decode("utf-8", "replace"))
+        return _key_dict(self._add_get(L, R, _as_time(t)))
+
+    def key(self, t):
+        """The key light at time t (seconds): {"dir": [x, y, z], "views": K}, or None before any
+        frame with light."""
+        key = _KeyLight()
+        with self._lock:
+            st = self._lib.pl_key_fuser_get(self._handle(), _as_time(t), ctypes.byref(key))
+        if st < 0:
+            raise _error(self._lib, st)
+        return _key_dict(key)
+
+    def reset(self):
+        """Forgets every frame (another room, another model)."""
+        with self._lock:
+            self._lib.pl_key_fuser_reset(self._handle())
+
+    def close(self):
+        """Frees the fuser; later calls raise ValueError. Idempotent."""
+        lock = getattr(self, "_lock", None)
+        if lock is None:
+            return
+        with lock:
+            k, self._k = self._k, None
+            if k is not None:
+                self._lib.pl_key_fuser_free(k)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+def _key_dict(key):
+    if key.views <= 0:
+        return None
+    return {"dir": [float(v) for v in key.dir], "views": int(key.views)}
