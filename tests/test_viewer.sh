@@ -6,8 +6,8 @@
 # frame on screen and takes screenshots; tests/viewer_check.py checks them: frames received, the
 # page's diffuse sphere against `parlight render --sphere diffuse` of the same line (linear RGB,
 # RMS <= 1% and largest error <= 3% of the peak), the primary light's shadow on the side away
-# from the light. Also: the static files (MIME types, 404, no way out of the folder by ".." or
-# %2e%2e), --thumb (a JPEG per line, shown by the page) and the flags' errors (--frame-interval,
+# from the light, the key light's arrow (--poses with identity poses, --fuse 0). Also: the
+# static files (MIME types, 404, no way out of the folder by ".." or %2e%2e), --thumb (a JPEG per line, shown by the page) and the flags' errors (--frame-interval,
 # --thumb, view without node_modules).
 # The screenshots are kept in $PL_VIEWER_SHOTS when set (tools/viewer-shots.sh -> docs/).
 # Bounded: every step has a timeout; the whole test takes about 30 s here.
@@ -96,8 +96,14 @@ mkdir -p "$T/frames"
 for f in apartment-window lab-lamps lobby-ceiling-lights warehouse-tubes; do
     ln -s "$PWD/tests/data/frames/$f.jpg" "$T/frames/$f.jpg"
 done
+# with the key light over views (--poses --fuse): the camera turned by nothing (identity
+# poses), so that the scene's lights, the sphere and the shadow are the camera's as above
+$PY -c 'import json
+for i in range(256):
+    print(json.dumps({"frame": i, "q": [1, 0, 0, 0]}))' >"$T/poses.jsonl"
 "$P" view --model "$M" --input "$T/frames" --port 0 --wait-clients 1 \
-    --frame-interval 300 --n-frames 200 >"$T/view.out" 2>"$T/view.err" &
+    --frame-interval 300 --n-frames 200 --poses "$T/poses.jsonl" --fuse 0 \
+    >"$T/view.out" 2>"$T/view.err" &
 pids+=($!)
 PORT=$(port_of "$T/view.err") || { fail "view: no port ($(head -c 400 "$T/view.err"))"; finish; }
 grep -q "viewer: open http://127.0.0.1:$PORT/ in a browser" "$T/view.err" &&

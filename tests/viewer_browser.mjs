@@ -65,7 +65,8 @@ try {
             }
             return { frames: v.frames, shown: v.shown, line: v.line, exposure: v.exposure,
                 ref: v.ref, width: innerWidth, height: innerHeight, title: document.title,
-                dom_frames: document.body.dataset.frames, casters, points: pts,
+                dom_frames: document.body.dataset.frames, casters, points: pts, key: v.keyArrow,
+                key_text: document.getElementById('keylight').textContent,
                 thumb: (im => ({ shown: !im.hidden, width: im.naturalWidth, height: im.naturalHeight,
                     rect: im.getBoundingClientRect().toJSON() }))(document.getElementById('thumb')) };
         });

@@ -84,6 +84,20 @@ def main():
             fail(f"camera frame: the line has a {size} JPEG, the page shows {th}")
     else:
         fail("camera frame: the line has no thumb field (parlight view adds --thumb 160)")
+    # the key light over views (the test runs view with --poses ... --fuse 0): an arrow along the
+    # line's key_light and its direction and view count in the panel
+    kl = frame.get("key_light")
+    if not kl:
+        fail(f"key light: the line on screen has key_light {kl!r} (view runs with --fuse 0)")
+    else:
+        n = math.sqrt(sum(v * v for v in kl["dir"]))
+        want = [v / n for v in kl["dir"]]
+        got, text = st.get("key"), st.get("key_text", "")
+        views = f"({kl['views']} view"
+        if got and max(abs(a - b) for a, b in zip(got, want)) < 1e-5 and views in text:
+            ok(f"key light: an arrow along the line's key_light {kl['dir']}, panel '{text}'")
+        else:
+            fail(f"key light: the line's {kl}, the page's arrow {got}, panel '{text}'")
 
     # 2. sphere
     with open(f"{d}/lights.json", "w") as f:

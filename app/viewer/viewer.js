@@ -254,6 +254,18 @@ function updateArrows(frame) {
         a.cone.material.toneMapped = false;
         arrows.add(a);
     }
+    // the room's key light over views (estimate --fuse), when the line has one: a longer white
+    // arrow with a wide head, in the same space as the lights (world: --fuse needs --poses)
+    viewer.keyArrow = null;
+    if (frame.key_light) {
+        const d = new THREE.Vector3().fromArray(frame.key_light.dir).normalize();
+        const a = new THREE.ArrowHelper(d, origin, 1.0, 0xffffff, 0.18, 0.12);
+        a.line.material.toneMapped = false;
+        a.cone.material.toneMapped = false;
+        a.name = 'key light';
+        arrows.add(a);
+        viewer.keyArrow = d.toArray();
+    }
 }
 
 // ---- state, exposed for tests and curious users -------------------------------------------
@@ -261,6 +273,7 @@ const viewer = {
     frames: 0,          // lines received
     shown: 0,           // lines applied to the scene
     frame: null,        // the line on screen (parsed)
+    keyArrow: null,     // the key light arrow's unit direction, when the line has a key light
     line: '',           // ... and as received
     exposure: 1,
     ref: { right: REF_MARGIN, bottom: REF_MARGIN, size: REF_SIZE },
@@ -321,6 +334,10 @@ function checkLine(f) {
     if (!nums(f.engine.dir, 3) || !nums(f.engine.intensity, 3) || !nums(f.engine.sh9, 27))
         return '"engine" needs dir[3], intensity[3] and sh9[27] numbers';
     if (!nums(f.ambient, 3) || !Array.isArray(f.lights)) return 'no "lights" or "ambient"';
+    if (f.key_light !== undefined && f.key_light !== null &&
+        (!nums(f.key_light.dir, 3) || !Number.isInteger(f.key_light.views) ||
+            f.key_light.views < 1))
+        return '"key_light" needs dir[3] numbers and views >= 1 (or null)';
     for (const l of f.lights) {
         if (!l || !nums(l.dir, 3) || !nums(l.rgb, 3) || !(l.solid_angle_sr > 0))
             return 'a light without dir[3], rgb[3] and solid_angle_sr > 0';
@@ -375,6 +392,10 @@ function onFrame(line) {
     document.getElementById('primary').textContent =
         f.primary ? f.primary.dir.map(v => v.toFixed(2)).join(', ') : '-';
     document.getElementById('exposure').textContent = viewer.exposure.toPrecision(3);
+    const k = f.key_light;
+    document.getElementById('keylight').textContent = k === undefined ? '- (estimate --fuse)'
+        : k === null ? 'no view with light yet'
+        : `${k.dir.map(v => v.toFixed(2)).join(', ')} (${k.views} view${k.views === 1 ? '' : 's'})`;
     document.getElementById('rate').textContent = stamps.length > 1
         ? ((stamps.length - 1) * 1000 / (now - stamps[0])).toFixed(1) : '-';
     render();
