@@ -9,6 +9,9 @@ estimate() returns the JSON object `parlight estimate` prints for a frame (docs/
 by the library's own pl_frame_format_json and parsed with json.loads: the same fields, and for
 the same pixels the same numbers, as the CLI.
 
+KeyFuser is the room's key light fused over the headings a camera has seen (pl_key_fuser_*):
+m.estimate(rgb, pose=q, fuse=k) adds the line's "key_light" as `estimate --poses ... --fuse` does.
+
 Finding the library, first hit wins: the `lib` argument (a path), $PARLIGHT_LIB (a path), the
 build/ folder of the checkout this package sits in (python/../build/libparlight.so), then
 ctypes.util.find_library("parlight") (an installed libparlight.so.0: make install).
