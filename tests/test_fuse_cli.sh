@@ -6,7 +6,7 @@
 # lines' own world-space lights, and its angle to the panorama's light is the one `parlight eval`
 # reports for the same room (eval's crops are crop --batch's: test_eval_cli.sh). With --fuse 1.5
 # (frames 1 s apart by their files' times) at most two views count. Bad input: --fuse without --poses, with
-# --orientation, a negative or non-numeric age.
+# --orientation, a negative or non-numeric age. Also tools/train/fuse_sweeps.py on eval's file.
 # Model: build/models/seeded-n3.plm (seeded weights: the plumbing is what is tested).
 set -u
 cd "$(dirname "$0")/.."
@@ -66,6 +66,22 @@ want = ev["panoramas"][0]["key_light_angle_deg"]["model"]
 assert abs(got - want) < 0.5, f"estimate's key light is {got:.3f} deg from the light, eval says {want}"
 print(f"last key light {got:.2f} deg from the panorama's light (eval: {want:.2f})")
 PY
+# tools/train/fuse_sweeps.py (the model card's sweep table) on the same eval file: its one sweep
+# of all 8 views is eval's key light angle, its single-frame figure the crops' median angle
+expect 0 "" -- $PY tools/train/fuse_sweeps.py "$T/eval.json" --views 8,3 --json
+$PY - "$T/out" "$T/eval.json" <<'PY' && ok "fuse_sweeps.py: 8 views = eval's key light, 3 views = 8 sweeps" ||
+import json, statistics, sys
+r = {row["views"]: row for row in json.load(open(sys.argv[1]))["rows"]}
+p = json.load(open(sys.argv[2]))["panoramas"][0]
+assert abs(r[8]["fused_median_deg"] - p["key_light_angle_deg"]["model"]) < 1e-3, (r[8], p["key_light_angle_deg"])
+single = statistics.median(c["model"]["angle_deg"] for c in p["crops"])
+assert r[8]["sweeps"] == 1 and abs(r[8]["single_median_deg"] - single) < 1e-9, r[8]
+assert r[3]["sweeps"] == 8 and 0 <= r[3]["fused_closer"] <= 8, r[3]
+PY
+    fail "fuse_sweeps.py: $(head -c 300 "$T/out")"
+expect 1 "fewer than 9 views" -- $PY tools/train/fuse_sweeps.py "$T/eval.json" --views 9
+expect 1 "No such file" -- $PY tools/train/fuse_sweeps.py "$T/none.json"
+
 # a short memory: frames 1 s apart, so 1.5 s keeps the newest two views
 expect 0 "" -- "${est[@]}" --fuse 1.5
 $PY -c 'import json, sys
