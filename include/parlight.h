@@ -316,10 +316,12 @@ PL_API void pl_key_fuser_free(pl_key_fuser *fuser);
 PL_API void pl_key_fuser_reset(pl_key_fuser *fuser);
 /* Adds a frame: its lighting as pl_estimate_* returned it (camera frame, before any
  * pl_lighting_rotate), the camera-to-world rotation R of that frame (row-major 3x3, e.g. from
- * pl_quat_to_rotation; orthonormal within 1e-3) and its time t_s in seconds (any finite clock,
- * only compared with other frames' times). It replaces the kept frame of its heading. PL_E_ARG,
- * naming the problem, for an invalid lighting, a matrix that is not a rotation or a time that is
- * not finite; the fuser is then unchanged. */
+ * pl_quat_to_rotation; orthonormal within 1e-3; from a column-major 4x4 camera pose M as ARKit,
+ * ARCore and OpenGL store it, R[3 * i + j] = M[4 * j + i]; world y up, as WebXR's, for the
+ * heading bins) and its time t_s in seconds (any finite clock, only compared with other frames'
+ * times). It replaces the kept frame of its heading. PL_E_ARG, naming the problem, for an
+ * invalid lighting, a matrix that is not a rotation or a time that is not finite; the fuser is
+ * then unchanged. */
 PL_API int pl_key_fuser_add(pl_key_fuser *fuser, const pl_lighting *cam, const double R[9],
                             double t_s);
 /* The key light at time t_s (frames older than max_age_s before it left out). Returns 0, with
