@@ -215,21 +215,20 @@ def _lighting_from_dict(d):
         raise ValueError(f"parlight: \"lights\" must be a list of at most {PL_MAX_LIGHTS} lights")
     L = _Lighting()
     L.n_lights = len(lights)
+    def three(v):
+        out = [float(x) for x in v]
+        if len(out) != 3:
+            raise ValueError
+        return out
+
     try:
         for i, l in enumerate(lights):
-            L.lights[i].dir[:] = [float(v) for v in l["dir"]][:3]
-            if len(l["dir"]) != 3:
-                raise ValueError
+            L.lights[i].dir[:] = three(l["dir"])
             L.lights[i].distance_m = float(l["distance_m"])
             L.lights[i].solid_angle_sr = float(l["solid_angle_sr"])
-            if len(l["rgb"]) != 3:
-                raise ValueError
-            L.lights[i].rgb[:] = [float(v) for v in l["rgb"]]
-        amb = d.get("ambient", [0, 0, 0])
-        if len(amb) != 3:
-            raise ValueError
-        L.ambient[:] = [float(v) for v in amb]
-    except (KeyError, TypeError, ValueError, IndexError):
+            L.lights[i].rgb[:] = three(l["rgb"])
+        L.ambient[:] = three(d.get("ambient", [0, 0, 0]))
+    except (KeyError, TypeError, ValueError):
         raise ValueError("parlight: each light needs dir[3], distance_m, solid_angle_sr and "
                          "rgb[3] numbers, and ambient 3 numbers") from None
     return L
