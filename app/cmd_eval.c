@@ -71,6 +71,7 @@ typedef struct crop_job {
     pl_image_u8 ldr;
     double k;
     pl_lighting pred, gt, ridge;
+    pl_lighting brightest; /* baseline (b)'s lighting, for the JSON */
     double frame_ev; /* log2(frame's mean luminance / the estimate's), pl_anchor_ratio_ev */
     pl_eval_scores s[PL_EVAL_N_METHODS];
     int rc;
@@ -115,6 +116,8 @@ static void score_crops(void *vctx, int begin, int end)
         }
         rc = pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred,
                           c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt);
+        if (rc == 0) /* what pl_eval_crop scored as (b), kept for the JSON */
+            rc = pl_eval_baseline_brightest(&j->ldr, &j->p, &j->brightest);
         if (rc < 0) record_error(j, rc);
     }
 }
@@ -127,6 +130,7 @@ typedef struct pano_row {
     double *frame_ev;       /* [crops] */
     signed char *in_view;   /* [crops]: primary_in_view() of the ground truth */
     pl_lighting *pred, *gt; /* [crops]: the model's estimates, the ground truths */
+    pl_lighting *brightest; /* [crops]: baseline (b)'s lightings */
     pl_lighting *ridge;     /* [crops]: (d)'s estimates (zeros when not scored) */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
     double key_angle[2];    /* key light over the crops' views (model, ridge): angle to the
@@ -176,6 +180,7 @@ static void free_row(pano_row *r)
     free(r->pred);
     free(r->gt);
     free(r->ridge);
+    free(r->brightest);
     memset(r, 0, sizeof *r);
 }
 
@@ -246,8 +251,9 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     r->pred = malloc((size_t)crops * sizeof *r->pred);
     r->gt = malloc((size_t)crops * sizeof *r->gt);
     r->ridge = malloc((size_t)crops * sizeof *r->ridge);
+    r->brightest = malloc((size_t)crops * sizeof *r->brightest);
     if (!r->yaw || !r->k || !r->frame_ev || !r->in_view || !r->s || !r->pred || !r->gt ||
-        !r->ridge) {
+        !r->ridge || !r->brightest) {
         free_row(r);
         return pl_error(PL_E_NOMEM, "out of memory");
     }
@@ -259,6 +265,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->pred[i] = jobs[i].pred;
         r->gt[i] = jobs[i].gt;
         r->ridge[i] = jobs[i].ridge;
+        r->brightest[i] = jobs[i].brightest;
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
     }
     r->key_angle[0] = key_light(jobs, crops, 0, &lights);
@@ -408,9 +415,9 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
         fputc('}', f);
     }
     char lj[PL_MAX_LIGHTS * 256 + 128];
-    const pl_lighting *L[3] = {&pr->pred[i], &pr->gt[i], &pr->ridge[i]};
-    const char *key[3] = {"estimate", "ground_truth", "ridge_estimate"};
-    for (int t = 0; t < (have_ridge ? 3 : 2); t++) {
+    const pl_lighting *L[4] = {&pr->pred[i], &pr->gt[i], &pr->brightest[i], &pr->ridge[i]};
+    const char *key[4] = {"estimate", "ground_truth", "brightest_estimate", "ridge_estimate"};
+    for (int t = 0; t < (have_ridge ? 4 : 3); t++) {
         if (pl_lighting_format_json(L[t], lj, sizeof lj) < 0)
             return pl_error(PL_E_INTERNAL, "eval: %s JSON longer than %zu bytes", key[t],
                             sizeof lj);

@@ -132,7 +132,15 @@ for i, yaw in enumerate(("000", "180")):
     if c["ground_truth"] != {"lights": gt["lights"], "ambient": gt["ambient"]} or \
             c["exposure_scale"] != gt["exposure_scale"]:
         print(f"yaw {yaw}: ground truth {c['ground_truth']} vs crop --gt {gt['lights']}"); bad = 1
-print("ok   estimates and ground truth = crop --batch + estimate" if not bad else "")
+    # brightest_estimate is the lighting (b) was scored with: its light's angle to the truth's
+    # primary (most energy) is (b)'s angle_deg
+    sys.path.insert(0, "tests")
+    from fuse_ref import angle_deg, energy
+    b = c["brightest_estimate"]["lights"]
+    a = angle_deg(b[0]["dir"], max(gt["lights"], key=energy)["dir"]) if len(b) == 1 else None
+    if a is None or abs(a - c["brightest"]["angle_deg"]) > 1e-3:
+        print(f"yaw {yaw}: brightest_estimate {b}: angle {a} vs (b)'s {c['brightest']['angle_deg']}"); bad = 1
+print("ok   estimates, (b)'s lights and ground truth = crop --batch + estimate" if not bad else "")
 sys.exit(bad)
 PY
 else
