@@ -77,30 +77,40 @@ static void test_one_lobe(void)
     CHECK(deg_between(key, w) < 0.01, "turned: key %.4f deg off R d", deg_between(key, w));
 }
 
-/* Three headings 120 degrees apart. Each frame has the room's light (world direction `light`,
- * energy 0.45) and a brighter lobe fixed in the camera frame (0.55, up and to the right): every
- * frame's brightest light is the fixed one, which points somewhere else in each view. */
+/* Three headings 120 degrees apart. Each frame has the room's light (world direction
+ * TRI_LIGHT, energy 0.45) and a brighter lobe fixed in the camera frame (0.55, up and to the
+ * right): every frame's brightest light is the fixed one, which points somewhere else in each
+ * view. tri_view fills view v's lighting and camera-to-world rotation. */
+static const double TRI_LIGHT[3] = {0.8, 0.3, 0.2};
+
+static void tri_view(int v, pl_lighting *L, double R[9])
+{
+    double c[3];
+    heading_R(v * 2 * M_PI / 3, R);
+    to_cam(R, TRI_LIGHT, c);
+    memset(L, 0, sizeof *L);
+    L->n_lights = 2;
+    L->lights[0] = lobe(0.6, 0.4, -0.7, 2.5f, 0.55f);
+    L->lights[1] = lobe(c[0], c[1], c[2], 2.5f, 0.45f);
+    L->ambient[0] = L->ambient[1] = L->ambient[2] = 0.3f;
+}
+
 static void test_triangulation(void)
 {
     pl_fuser f;
-    double light[3] = {0.8, 0.3, 0.2}, R[9], c[3];
+    double R[9];
     float key[3];
     int views;
     pl_fuser_init(&f, 0);
     for (int v = 0; v < 3; v++) {
-        pl_lighting L = {0};
-        heading_R(v * 2 * M_PI / 3, R);
-        to_cam(R, light, c);
-        L.n_lights = 2;
-        L.lights[0] = lobe(0.6, 0.4, -0.7, 2.5f, 0.55f);
-        L.lights[1] = lobe(c[0], c[1], c[2], 2.5f, 0.45f);
-        L.ambient[0] = L.ambient[1] = L.ambient[2] = 0.3f;
+        pl_lighting L;
+        tri_view(v, &L, R);
         CHECK(pl_light_energy(&L.lights[0]) > pl_light_energy(&L.lights[1]), "fixed lobe brighter");
         CHECK(pl_fuser_add(&f, &L, R, 0) == 0, "add view %d", v);
     }
     CHECK(pl_fuser_key(&f, 0, key, &views) == 0 && views == 3, "key of 3 views (%d)", views);
-    CHECK(deg_between(key, light) < 3, "three views: key %.2f deg from the room's light",
-          deg_between(key, light));
+    CHECK(deg_between(key, TRI_LIGHT) < 3, "three views: key %.2f deg from the room's light",
+          deg_between(key, TRI_LIGHT));
 }
 
 /* One heading seen 50 times against two others once each: the heading counts once. */
@@ -214,7 +224,7 @@ static void test_bad_args(void)
           "a view without light energy holds no key light");
 }
 
-/* The public face: the triangulation of test_triangulation through pl_key_fuser_*, equal to the
+/* The public face: the views of test_triangulation through pl_key_fuser_*, equal to the
  * internal fuser's key bit for bit; an empty fuser answers views 0 without an error; refusals. */
 static void test_public_api(void)
 {
@@ -234,14 +244,10 @@ static void test_public_api(void)
 
     pl_fuser f;
     pl_fuser_init(&f, 0);
-    double light[3] = {0.8, 0.3, 0.2}, R[9], c[3];
+    double R[9];
     for (int v = 0; v < 3; v++) {
-        pl_lighting L = {0};
-        heading_R(v * 2 * M_PI / 3, R);
-        to_cam(R, light, c);
-        L.n_lights = 2;
-        L.lights[0] = lobe(0.6, 0.4, -0.7, 2.5f, 0.55f);
-        L.lights[1] = lobe(c[0], c[1], c[2], 2.5f, 0.45f);
+        pl_lighting L;
+        tri_view(v, &L, R);
         pl_fuser_add(&f, &L, R, v);
         CHECK(pl_key_fuser_add(k, &L, R, v) == 0, "public add %d", v);
     }
@@ -251,8 +257,8 @@ static void test_public_api(void)
     CHECK(pl_key_fuser_get(k, 3, &key) == 0 && key.views == 3 && ref_views == 3 &&
               !memcmp(key.dir, ref, sizeof ref),
           "the public key is the internal one, bit for bit");
-    CHECK(deg_between(key.dir, light) < 3, "and it is the room's light (%.2f deg)",
-          deg_between(key.dir, light));
+    CHECK(deg_between(key.dir, TRI_LIGHT) < 3, "and it is the room's light (%.2f deg)",
+          deg_between(key.dir, TRI_LIGHT));
 
     pl_lighting bad = {0};
     bad.n_lights = 1;
