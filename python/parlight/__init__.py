@@ -244,60 +244,32 @@ def _as_quat(pose):
     return (ctypes.c_double * 4)(*q)
 
 
-class Model:
-    """A loaded .plm model (pl_model_load). Close it with close() or a `with` block; it is also
-    freed when garbage-collected."""
+class _Owned:
+    """A library object behind a handle: the loaded library, a lock held around every call into
+    it, and close() (also `with` and garbage collection) freeing it with the function named by
+    _FREE. Subclasses set _WHAT (for "the ... is closed") and _FREE."""
+    _WHAT = "object"
+    _FREE = None
 
-    def __init__(self, path, lib=None, threads=1):
+    def _own(self, lib):
         self._lib = load_library(lib)
         self._lock = threading.Lock()
-        self._m = None
-        m = _P()
-        st = self._lib.pl_model_load(os.fsencode(path), ctypes.byref(m))
-        if st < 0:
-            raise _error(self._lib, st)
-        self._m = m
-        self._setup(threads)
-
-    @classmethod
-    def from_bytes(cls, data, lib=None, threads=1):
-        """A model from the bytes of a .plm file (pl_model_load_memory: copied, validated as a
-        file is; messages name it "<memory>")."""
-        self = cls.__new__(cls)
-        self._lib = load_library(lib)
-        self._lock = threading.Lock()
-        self._m = None
-        buf = bytes(data)
-        m = _P()
-        st = self._lib.pl_model_load_memory(buf, len(buf), ctypes.byref(m))
-        if st < 0:
-            raise _error(self._lib, st)
-        self._m = m
-        self._setup(threads)
-        return self
-
-    def _setup(self, threads):
-        if threads != 1:
-            st = self._lib.pl_model_set_threads(self._m, int(threads))
-            if st < 0:
-                err = _error(self._lib, st)
-                self.close()
-                raise err
+        self._p = None
 
     def _handle(self):
-        if self._m is None:
-            raise ValueError("parlight: the model is closed")
-        return self._m
+        if self._p is None:
+            raise ValueError(f"parlight: the {self._WHAT} is closed")
+        return self._p
 
     def close(self):
-        """Frees the model (pl_model_free); later calls raise ValueError. Idempotent."""
+        """Frees the object; later calls raise ValueError. Idempotent."""
         lock = getattr(self, "_lock", None)
         if lock is None:
             return
         with lock:
-            m, self._m = self._m, None
-            if m is not None:
-                self._lib.pl_model_free(m)
+            p, self._p = self._p, None
+            if p is not None:
+                getattr(self._lib, self._FREE)(p)
 
     def __enter__(self):
         return self
@@ -310,6 +282,46 @@ class Model:
             self.close()
         except Exception:  # interpreter shutdown: the library may be gone already
             pass
+
+
+class Model(_Owned):
+    """A loaded .plm model (pl_model_load). Close it with close() or a `with` block; it is also
+    freed when garbage-collected."""
+
+    _WHAT = "model"
+    _FREE = "pl_model_free"
+
+    def __init__(self, path, lib=None, threads=1):
+        self._own(lib)
+        m = _P()
+        st = self._lib.pl_model_load(os.fsencode(path), ctypes.byref(m))
+        if st < 0:
+            raise _error(self._lib, st)
+        self._p = m
+        self._setup(threads)
+
+    @classmethod
+    def from_bytes(cls, data, lib=None, threads=1):
+        """A model from the bytes of a .plm file (pl_model_load_memory: copied, validated as a
+        file is; messages name it "<memory>")."""
+        self = cls.__new__(cls)
+        self._own(lib)
+        buf = bytes(data)
+        m = _P()
+        st = self._lib.pl_model_load_memory(buf, len(buf), ctypes.byref(m))
+        if st < 0:
+            raise _error(self._lib, st)
+        self._p = m
+        self._setup(threads)
+        return self
+
+    def _setup(self, threads):
+        if threads != 1:
+            st = self._lib.pl_model_set_threads(self._p, int(threads))
+            if st < 0:
+                err = _error(self._lib, st)
+                self.close()
+                raise err
 
     @property
     def info(self):
@@ -407,7 +419,7 @@ class Model:
         return json.loads(buf.raw[:n].decode("utf-8"))
 
 
-class KeyFuser:
+class KeyFuser(_Owned):
     """The room's key light fused over the headings a camera has seen (pl_key_fuser_*,
     docs/OUTPUT.md "Key light over views"): the CLI's `estimate --poses ... --fuse MAX_AGE`.
 
@@ -420,21 +432,17 @@ class KeyFuser:
     equally, and answers the world-space direction where their lights add up to the most. Like a
     Model it locks around its calls; close() or a `with` block frees it."""
 
+    _WHAT = "key fuser"
+    _FREE = "pl_key_fuser_free"
+
     def __init__(self, max_age=0.0, lib=None):
-        self._lib = load_library(lib)
-        self._lock = threading.Lock()
-        self._k = None
+        self._own(lib)
         k = _P()
         st = self._lib.pl_key_fuser_new(_as_time(max_age), ctypes.byref(k))
         if st < 0:
             raise ValueError("parlight: max_age: " +
                              self._lib.pl_last_error().decode("utf-8", "replace"))
-        self._k = k
-
-    def _handle(self):
-        if self._k is None:
-            raise ValueError("parlight: the key fuser is closed")
-        return self._k
+        self._p = k
 
     def _add_get(self, L, R, t):
         key = _KeyLight()
@@ -472,28 +480,6 @@ class KeyFuser:
         """Forgets every frame (another room, another model)."""
         with self._lock:
             self._lib.pl_key_fuser_reset(self._handle())
-
-    def close(self):
-        """Frees the fuser; later calls raise ValueError. Idempotent."""
-        lock = getattr(self, "_lock", None)
-        if lock is None:
-            return
-        with lock:
-            k, self._k = self._k, None
-            if k is not None:
-                self._lib.pl_key_fuser_free(k)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:
-            pass
 
 
 def _key_dict(key):
