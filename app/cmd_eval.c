@@ -115,9 +115,7 @@ static void score_crops(void *vctx, int begin, int end)
             continue;
         }
         rc = pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred,
-                          c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt);
-        if (rc == 0) /* what pl_eval_crop scored as (b), kept for the JSON */
-            rc = pl_eval_baseline_brightest(&j->ldr, &j->p, &j->brightest);
+                          c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt, &j->brightest);
         if (rc < 0) record_error(j, rc);
     }
 }

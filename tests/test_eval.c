@@ -229,7 +229,7 @@ static void test_crop(void)
     pl_lighting gt, pred;
     pl_crop_lighting(&gtp, &p, k, &pred); /* an estimate equal to the ground truth */
     pl_eval_scores s[PL_EVAL_N_METHODS];
-    if (pl_eval_crop(&pano, &gtp, &p, &ldr, k, &pred, NULL, 32, s, &gt) < 0) {
+    if (pl_eval_crop(&pano, &gtp, &p, &ldr, k, &pred, NULL, 32, s, &gt, NULL) < 0) {
         CHECK(0, "eval crop: %s", pl_last_error());
         goto done;
     }
