@@ -14,6 +14,7 @@
 #include "app/thumb.h"
 #include "core/ratelimit.h"
 #include "core/util.h"
+#include "light/fuse.h"
 #include "light/light.h"
 #include "light/lights_json.h"
 #include "light/pose.h"
@@ -88,6 +89,10 @@ static void help(FILE *f)
             "  --fuse MAX_AGE  with --poses: add \"key_light\", the room's main light direction fused\n"
             "                  over the headings seen (world space), forgetting views older than\n"
             "                  MAX_AGE seconds (0: never) (docs/OUTPUT.md, \"Key light over views\")\n"
+            "  --aim N         with --fuse: once the key light rests on N headings or more (1..24;\n"
+            "                  3 or more measured to help), turn each frame's primary light to it;\n"
+            "                  lights, primary, sh9 and engine follow (docs/OUTPUT.md, \"Aiming at\n"
+            "                  the key light\")\n"
             "  --loop          --input only: start again at the end (frame numbers go on), until\n"
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
@@ -282,6 +287,7 @@ int cmd_estimate(int argc, char **argv)
                                          {"www", required_argument, 0, 1009},
                                          {"thumb", required_argument, 0, 1010},
                                          {"fuse", required_argument, 0, 1011},
+                                         {"aim", required_argument, 0, 1012},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"mqtt-qos", required_argument, 0, 1001},
                                          {"mqtt-id", required_argument, 0, 1002},
@@ -303,6 +309,7 @@ int cmd_estimate(int argc, char **argv)
     char *thumb_line = NULL; /* the line with its "thumb" field */
     int have_orient = 0, n_pose_flags = 0;
     double fuse_age = -1; /* --fuse MAX_AGE; < 0: not given */
+    int aim_views = 0;    /* --aim N; 0: not given */
     double fixed_q[4], fixed_R[9];
     const char *poses_path = NULL;
     cli_poses poses = {0};
@@ -398,6 +405,9 @@ int cmd_estimate(int argc, char **argv)
         case 1011:
             if (cli_double("estimate", "--fuse", optarg, 0, 1e9, 0, &fuse_age) < 0) return 2;
             break;
+        case 1012:
+            if (cli_int("estimate", "--aim", optarg, 1, PL_FUSE_BINS, &aim_views) < 0) return 2;
+            break;
         case 'W':
             if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
                         &wait_clients) < 0)
@@ -473,6 +483,11 @@ int cmd_estimate(int argc, char **argv)
     if (fuse_age >= 0 && !poses_path) {
         fprintf(stderr, "parlight estimate: --fuse needs the camera's heading in every frame: "
                         "--poses FILE (--orientation is one heading, --gravity has none)\n");
+        return 2;
+    }
+    if (aim_views && fuse_age < 0) {
+        fprintf(stderr, "parlight estimate: --aim turns the lights to the fused key light: it "
+                        "needs --fuse MAX_AGE (and --poses)\n");
         return 2;
     }
     if (have_orient && pl_quat_to_rotation(fixed_q, fixed_R) < 0) {
@@ -691,8 +706,19 @@ int cmd_estimate(int argc, char **argv)
         }
         int est = pl_estimate_rgb8(model, fr.image.data, fr.image.width, fr.image.height,
                                    fr.image.stride, &L, &tm);
-        const pl_lighting L_cam = L; /* the frame's own lights, for --fuse */
+        const pl_lighting L_cam = L; /* the frame's own lights, camera frame */
         if (est == 0 && orient) pl_lighting_rotate(&L, R, &L);
+        pl_key_light key;
+        if (est == 0 && fuser) { /* the frame's own lights, before smoothing */
+            fuse_t += dt_s;
+            if (pl_key_fuser_add(fuser, &L_cam, R, fuse_t) < 0 ||
+                pl_key_fuser_get(fuser, fuse_t, &key) < 0 ||
+                (aim_views && key.views >= aim_views &&
+                 pl_lighting_aim_primary(&L, key.dir, &L) < 0)) {
+                fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
+                goto out;
+            }
+        }
         if (est < 0 || pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {
             fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
@@ -702,15 +728,6 @@ int cmd_estimate(int argc, char **argv)
             fprintf(stderr, "parlight estimate: %s: the model produced a non-finite value\n",
                     fr.name);
             goto out;
-        }
-        pl_key_light key;
-        if (fuser) {
-            fuse_t += dt_s;
-            if (pl_key_fuser_add(fuser, &L_cam, R, fuse_t) < 0 ||
-                pl_key_fuser_get(fuser, fuse_t, &key) < 0) {
-                fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
-                goto out;
-            }
         }
         const double total_ms = (double)(pl_now_ns() - t0) / 1e6;
         const char *desc = pl_source_describe(src);

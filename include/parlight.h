@@ -71,9 +71,9 @@ extern "C" {
  * against, pl_version() for what it runs with. The major number changes when the API or the ABI
  * does (libparlight.so.MAJOR). */
 #define PARLIGHT_VERSION_MAJOR 0
-#define PARLIGHT_VERSION_MINOR 6
+#define PARLIGHT_VERSION_MINOR 7
 #define PARLIGHT_VERSION_PATCH 0
-#define PARLIGHT_VERSION "0.6.0"
+#define PARLIGHT_VERSION "0.7.0"
 PL_API const char *pl_version(void);
 
 typedef enum pl_status {
@@ -223,6 +223,15 @@ PL_API int pl_lighting_at_point(const pl_lighting *L, const float p[3], pl_light
  * its peak radiance c_i. Returns the index of that light (>= 0); with no lights dir = (0, 1, 0),
  * rgb = (0, 0, 0) and it returns 0 as well (PL_E_ARG only for NULL outputs). */
 PL_API int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3]);
+
+/* L with its primary light (pl_lighting_primary's) turned to dir, a direction in L's own frame
+ * (normalised here); its distance, size and colour, the other lights and the ambient unchanged.
+ * For an app that fuses views (pl_key_fuser_get): the frame's lighting aimed at the key light,
+ * which puts the same light where the room's light is (docs/OUTPUT.md, "Aiming at the key
+ * light"; world-space lights take the key's dir as it is, camera-frame ones R^T dir). Returns the
+ * primary light's index (0 with no lights: out = L). PL_E_ARG, out untouched, for NULL arguments
+ * or a zero or non-finite dir. out may be L. */
+PL_API int pl_lighting_aim_primary(const pl_lighting *L, const float dir[3], pl_lighting *out);
 
 /* 27 L2 SH coefficients, WebXR order (9 coefficients x RGB interleaved: L00.r, L00.g, L00.b,
  * L1-1.r, ...), in the order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real orthonormal

@@ -233,3 +233,21 @@ int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3])
     }
     return best;
 }
+
+int pl_lighting_aim_primary(const pl_lighting *L, const float dir[3], pl_lighting *out)
+{
+    if (!L || !dir || !out) return pl_error(PL_E_ARG, "pl_lighting_aim_primary: NULL argument");
+    const double n = sqrt((double)dir[0] * dir[0] + (double)dir[1] * dir[1] +
+                          (double)dir[2] * dir[2]);
+    if (!(n > 1e-12) || !isfinite(n))
+        return pl_error(PL_E_ARG, "pl_lighting_aim_primary: the direction (%g, %g, %g) is %s",
+                        (double)dir[0], (double)dir[1], (double)dir[2],
+                        isfinite(n) ? "zero" : "not finite");
+    float d[3], rgb[3];
+    const int p = pl_lighting_primary(L, d, rgb);
+    if (out != L) *out = *L;
+    if (L->n_lights <= 0) return 0;
+    for (int k = 0; k < 3; k++)
+        out->lights[p].dir[k] = (float)(dir[k] / n);
+    return p;
+}

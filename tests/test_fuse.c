@@ -4,7 +4,8 @@
  * counts once; views expire by age; a view's exposure does not matter; a light smaller than the
  * search grid's spacing is still found; bad arguments are refused and leave the state alone.
  * The public handle (pl_key_fuser_*, include/parlight.h) gives the internal fuser's answer bit
- * for bit, and pl_frame_format_json_key writes it as the CLI does. */
+ * for bit, and pl_frame_format_json_key writes it as the CLI does. pl_lighting_aim_primary turns
+ * a frame's primary light, and nothing else, to the key light. */
 #include <string.h>
 
 #include "core/json.h"
@@ -313,6 +314,56 @@ static void test_public_api(void)
     pl_key_fuser_free(NULL);
 }
 
+static void test_aim(void)
+{
+    pl_key_fuser *k = NULL;
+    pl_key_light key;
+    pl_lighting L, A, B;
+    double R[9];
+    CHECK(pl_key_fuser_new(0, &k) == 0, "new");
+    for (int v = 0; v < 3; v++) {
+        tri_view(v, &L, R);
+        CHECK(pl_key_fuser_add(k, &L, R, v) == 0, "add %d", v);
+    }
+    CHECK(pl_key_fuser_get(k, 3, &key) == 0 && key.views == 3, "key of 3 views");
+    /* the last view (v 2): its brighter lobe 0 stays put in the camera, the room's light is lobe 1 */
+    double kc[3], tc[3];
+    to_cam(R, (double[3]){key.dir[0], key.dir[1], key.dir[2]}, kc);
+    to_cam(R, TRI_LIGHT, tc);
+    const float kcf[3] = {(float)(2 * kc[0]), (float)(2 * kc[1]), (float)(2 * kc[2])};
+    CHECK(pl_lighting_aim_primary(&L, kcf, &A) == 0, "aimed: primary is light 0");
+    CHECK(deg_between(A.lights[0].dir, tc) < 3, "aimed primary %.2f deg from the room's light",
+          deg_between(A.lights[0].dir, tc));
+    CHECK(fabs(sqrt(A.lights[0].dir[0] * A.lights[0].dir[0] + A.lights[0].dir[1] * A.lights[0].dir[1] +
+                    A.lights[0].dir[2] * A.lights[0].dir[2]) - 1) < 1e-6,
+          "a dir of length 2 is normalised");
+    CHECK(A.n_lights == L.n_lights && !memcmp(&A.lights[1], &L.lights[1], sizeof L.lights[1]) &&
+              !memcmp(A.ambient, L.ambient, sizeof L.ambient) &&
+              A.lights[0].distance_m == L.lights[0].distance_m &&
+              A.lights[0].solid_angle_sr == L.lights[0].solid_angle_sr &&
+              !memcmp(A.lights[0].rgb, L.lights[0].rgb, sizeof L.lights[0].rgb),
+          "only the primary's direction changes");
+    B = L;
+    CHECK(pl_lighting_aim_primary(&B, kcf, &B) == 0 && !memcmp(&A, &B, sizeof A), "out may be L");
+
+    pl_lighting none = L;
+    none.n_lights = 0;
+    CHECK(pl_lighting_aim_primary(&none, kcf, &B) == 0 && !memcmp(&B, &none, sizeof B),
+          "no lights: out is L");
+    B = A;
+    CHECK(pl_lighting_aim_primary(&L, (float[3]){0, 0, 0}, &B) == PL_E_ARG &&
+              strstr(pl_last_error(), "zero") && !memcmp(&B, &A, sizeof B),
+          "a zero direction is refused, out untouched");
+    CHECK(pl_lighting_aim_primary(&L, (float[3]){NAN, 0, 1}, &B) == PL_E_ARG &&
+              strstr(pl_last_error(), "not finite") && !memcmp(&B, &A, sizeof B),
+          "a NaN direction is refused, out untouched");
+    CHECK(pl_lighting_aim_primary(NULL, kcf, &B) == PL_E_ARG &&
+              pl_lighting_aim_primary(&L, NULL, &B) == PL_E_ARG &&
+              pl_lighting_aim_primary(&L, kcf, NULL) == PL_E_ARG,
+          "NULL arguments are refused");
+    pl_key_fuser_free(k);
+}
+
 int main(void)
 {
     test_one_lobe();
@@ -322,6 +373,7 @@ int main(void)
     test_small_light();
     test_bad_args();
     test_public_api();
+    test_aim();
     if (failures) {
         printf("%d failure(s)\n", failures);
         return 1;

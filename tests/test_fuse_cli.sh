@@ -4,9 +4,10 @@
 # with a --poses file that turns each by its yaw. Every line gets "key_light", resting on one more
 # heading each frame; the last one is the key light recomputed by tests/fuse_ref.py from the
 # lines' own world-space lights, and its angle to the panorama's light is the one `parlight eval`
-# reports for the same room (eval's crops are crop --batch's: test_eval_cli.sh). With --fuse 1.5
+# reports for the same room (eval's crops are crop --batch's: test_eval_cli.sh). --aim 3 turns the
+# primary light of the lines with 3 headings or more to the key light and leaves the rest. With --fuse 1.5
 # (frames 1 s apart by their files' times) at most two views count. Bad input: --fuse without --poses, with
-# --orientation, a negative or non-numeric age. Also tools/train/fuse_sweeps.py on eval's file.
+# --orientation, a negative or non-numeric age; --aim without --fuse, out of 1..24. Also tools/train/fuse_sweeps.py on eval's file.
 # Model: build/models/seeded-n3.plm (seeded weights: the plumbing is what is tested).
 set -u
 cd "$(dirname "$0")/.."
@@ -88,6 +89,38 @@ $PY -c 'import json, sys
 v = [json.loads(l)["key_light"]["views"] for l in open(sys.argv[1])]
 sys.exit(0 if v == [1, 2, 2, 2, 2, 2, 2, 2] else (print(v) or 1))' "$T/out" &&
     ok "--fuse 1.5: views 1, then 2" || fail "--fuse 1.5 views: $(head -c 300 "$T/out")"
+# --aim 3: from the third heading on, each line's primary light points along its key light and
+# nothing else of the lighting moves; before it the lines are --fuse's own
+expect 0 "" -- "${est[@]}" --fuse 0 --aim 3
+$PY - "$T/out" "$T/fused.jsonl" <<'PY' && ok "--aim 3: primary along key_light from 3 views, the rest as --fuse" ||
+import json, sys
+aimed = [json.loads(l) for l in open(sys.argv[1])]
+plain = [json.loads(l) for l in open(sys.argv[2])]
+assert len(aimed) == len(plain) == 8
+n_moved = 0
+def close(a, b, tol=1e-6):
+    return all(abs(x - y) <= tol * max(1, abs(y)) for x, y in zip(a, b))
+for i, (a, p) in enumerate(zip(aimed, plain)):
+    assert a["key_light"] == p["key_light"], (i, a["key_light"], p["key_light"])
+    if a["key_light"]["views"] < 3:
+        for f in ("lights", "ambient", "primary", "sh9", "engine"):
+            assert a[f] == p[f], (i, f)
+        continue
+    k = a["key_light"]["dir"]
+    assert close(a["primary"]["dir"], k), (i, a["primary"]["dir"], k)
+    assert close(a["engine"]["dir"], k), (i, a["engine"]["dir"], k)
+    moved = [j for j, (la, lp) in enumerate(zip(a["lights"], p["lights"])) if la != lp]
+    assert len(moved) <= 1, (i, moved)
+    n_moved += len(moved)
+    for j in moved:
+        la, lp = a["lights"][j], p["lights"][j]
+        assert close(la["dir"], k) and la["rgb"] == lp["rgb"] and la["solid_angle_sr"] == lp["solid_angle_sr"], (i, la, lp)
+        assert a["sh9"] != p["sh9"], f"frame {i}: the light moved, its sh9 did not"
+    assert a["ambient"] == p["ambient"] and a["primary"]["rgb"] == p["primary"]["rgb"], i
+assert n_moved >= 3, f"the primary light moved in only {n_moved} of the aimed frames"
+print("aimed from frame", next(i for i, a in enumerate(aimed) if a["key_light"]["views"] >= 3), "moved in", n_moved)
+PY
+    fail "--aim 3: $(head -c 300 "$T/out")"
 # without --fuse, no key_light
 expect 0 "" -- "${est[@]}"
 grep -q key_light "$T/out" && fail "key_light without --fuse"
@@ -99,4 +132,9 @@ expect 2 "--fuse needs" -- "$P" estimate --model "$M" --input "$T/crops" --orien
 expect 2 "--fuse" -- "${est[@]}" --fuse -1
 expect 2 "--fuse" -- "${est[@]}" --fuse soon
 expect 2 "--fuse" -- "${est[@]}" --fuse nan
+expect 2 "--aim turns the lights to the fused key light: it needs --fuse MAX_AGE" -- \
+    "${est[@]}" --aim 3
+expect 2 "--aim" -- "${est[@]}" --fuse 0 --aim 0
+expect 2 "--aim" -- "${est[@]}" --fuse 0 --aim 25
+expect 2 "--aim" -- "${est[@]}" --fuse 0 --aim three
 finish

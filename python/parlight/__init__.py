@@ -175,7 +175,7 @@ def _error(L, status):
 
 
 def version(lib=None):
-    """pl_version(): the version of the library that is loaded ("0.6.0")."""
+    """pl_version(): the version of the library that is loaded ("0.7.0")."""
     return load_library(lib).pl_version().decode("ascii")
 
 
