@@ -18,6 +18,7 @@
 #include "light/extract.h"
 #include "light/fuse.h"
 #include "light/lights_json.h"
+#include "light/pose.h"
 #include "light/ridge.h"
 #include "model/resize.h"
 #include "parlight.h"
@@ -74,6 +75,9 @@ typedef struct crop_job {
     pl_lighting brightest; /* baseline (b)'s lighting, for the JSON */
     double frame_ev; /* log2(frame's mean luminance / the estimate's), pl_anchor_ratio_ev */
     pl_eval_scores s[PL_EVAL_N_METHODS];
+    pl_lighting aimed;       /* pred with its primary turned to the room's key light */
+    int have_aimed;          /* 0: the room has no key light (aimed_s all NaN) */
+    pl_eval_scores aimed_s;  /* aimed's scores */
     int rc;
     char err[512];
 } crop_job;
@@ -114,8 +118,14 @@ static void score_crops(void *vctx, int begin, int end)
             record_error(j, rc);
             continue;
         }
+        pl_image_f32 truth = {0, 0, NULL};
         rc = pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred,
-                          c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt, &j->brightest);
+                          c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt, &j->brightest,
+                          &truth);
+        if (rc == 0 && j->have_aimed && (rc = pl_eval_score(&j->aimed, &truth, &j->gt,
+                                                            &j->aimed_s)) < 0)
+            pl_error_prefix(rc, "eval: aimed at the key light");
+        pl_image_f32_free(&truth);
         if (rc < 0) record_error(j, rc);
     }
 }
@@ -131,6 +141,7 @@ typedef struct pano_row {
     pl_lighting *brightest; /* [crops]: baseline (b)'s lightings */
     pl_lighting *ridge;     /* [crops]: (d)'s estimates (zeros when not scored) */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
+    pl_eval_scores *aimed;  /* [crops]: the model aimed at the room's key light (room_key) */
     double key_angle[2];    /* key light over the crops' views (model, ridge): angle to the
                                truth's primary in degrees, NAN when undefined (key_light()) */
 } pano_row;
@@ -153,19 +164,43 @@ static int primary_in_view(const pl_lighting *gt, const pl_crop_params *p)
 /* The key light fused over a room's views (light/fuse.h), each crop a view turned into the
  * panorama's frame by its camera's rotation, against the panorama's primary light: the angle in
  * degrees, NAN when the truth has no light or no view holds light. */
-static double key_light(const crop_job *jobs, int crops, int ridge, const pl_lighting *truth)
+static int room_key(const crop_job *jobs, int crops, int ridge, float key[3])
 {
     pl_fuser fu;
-    float key[3], dir[3], rgb[3];
-    if (truth->n_lights <= 0 || pl_fuser_init(&fu, 0) < 0) return NAN;
+    if (pl_fuser_init(&fu, 0) < 0) return -1;
     for (int i = 0; i < crops; i++) {
         double R[9];
         pl_crop_rotation(&jobs[i].p, R);
-        if (pl_fuser_add(&fu, ridge ? &jobs[i].ridge : &jobs[i].pred, R, 0) < 0) return NAN;
+        if (pl_fuser_add(&fu, ridge ? &jobs[i].ridge : &jobs[i].pred, R, 0) < 0) return -1;
     }
-    if (pl_fuser_key(&fu, 0, key, NULL) < 0) return NAN;
+    return pl_fuser_key(&fu, 0, key, NULL) < 0 ? -1 : 0;
+}
+
+static double key_light(const crop_job *jobs, int crops, int ridge, const pl_lighting *truth)
+{
+    float key[3], dir[3], rgb[3];
+    if (truth->n_lights <= 0 || room_key(jobs, crops, ridge, key) < 0) return NAN;
     pl_lighting_primary(truth, dir, rgb);
     return pl_eval_angle_deg(key, dir);
+}
+
+/* Each crop's estimate with its primary light turned to the room's key light over all its
+ * crops (what `parlight estimate --aim` gives once it has seen them: docs/OUTPUT.md). */
+static void aim_crops(crop_job *jobs, int crops)
+{
+    float key[3];
+    const int have = room_key(jobs, crops, 0, key) == 0;
+    for (int i = 0; i < crops; i++) {
+        crop_job *j = &jobs[i];
+        double R[9];
+        float kc[3];
+        pl_crop_rotation(&j->p, R);
+        pl_rotate3_inverse(R, key, kc);
+        j->have_aimed = have && pl_lighting_aim_primary(&j->pred, kc, &j->aimed) >= 0;
+        if (!j->have_aimed)
+            j->aimed_s.rmse = j->aimed_s.si_rmse = j->aimed_s.scale_ev = j->aimed_s.render_rms =
+                j->aimed_s.angle_deg = NAN;
+    }
 }
 
 static void free_row(pano_row *r)
@@ -179,6 +214,7 @@ static void free_row(pano_row *r)
     free(r->gt);
     free(r->ridge);
     free(r->brightest);
+    free(r->aimed);
     memset(r, 0, sizeof *r);
 }
 
@@ -226,6 +262,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
             &j->pred);
     }
     const int64_t t2 = pl_now_ns();
+    aim_crops(jobs, crops);
     pl_pool_for(pool, crops, score_crops, &ctx);
     ms[0] += (double)(t1 - t0) / 1e6;
     ms[1] += (double)(t2 - t1) / 1e6;
@@ -250,8 +287,9 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     r->gt = malloc((size_t)crops * sizeof *r->gt);
     r->ridge = malloc((size_t)crops * sizeof *r->ridge);
     r->brightest = malloc((size_t)crops * sizeof *r->brightest);
+    r->aimed = malloc((size_t)crops * sizeof *r->aimed);
     if (!r->yaw || !r->k || !r->frame_ev || !r->in_view || !r->s || !r->pred || !r->gt ||
-        !r->ridge || !r->brightest) {
+        !r->ridge || !r->brightest || !r->aimed) {
         free_row(r);
         return pl_error(PL_E_NOMEM, "out of memory");
     }
@@ -264,6 +302,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->gt[i] = jobs[i].gt;
         r->ridge[i] = jobs[i].ridge;
         r->brightest[i] = jobs[i].brightest;
+        r->aimed[i] = jobs[i].aimed_s;
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
     }
     r->key_angle[0] = key_light(jobs, crops, 0, &lights);
@@ -386,9 +425,40 @@ static int put_methods_json(FILE *f, const pl_eval_scores *s, int n, int have_ri
     return 0;
 }
 
-/* One crop's JSON object: yaw, exposure scale, the scores of every method, the model's
- * estimate, the ground truth and (d)'s estimate when scored (lights JSON members,
- * light/lights_json.h). */
+/* One crop's scores of one lighting: {"rmse":..,"si_rmse":..,"angle_deg":..,...}. */
+static void put_scores_json(FILE *f, const pl_eval_scores *x)
+{
+    fputs("{\"rmse\":", f);
+    put_num(f, x->rmse);
+    fputs(",\"si_rmse\":", f);
+    put_num(f, x->si_rmse);
+    fputs(",\"angle_deg\":", f);
+    put_num(f, x->angle_deg);
+    fputs(",\"scale_ev\":", f);
+    put_num(f, x->scale_ev);
+    fputs(",\"render_rms\":", f);
+    put_num(f, x->render_rms);
+    fputc('}', f);
+}
+
+/* A panorama's "key_aimed" statistics (no braces): rmse and si-RMSE over its crops. */
+static int put_aimed_json(FILE *f, const pl_eval_scores *aimed, int crops, double *buf)
+{
+    for (int q = 0; q < 2; q++) {
+        pl_eval_stats st;
+        for (int i = 0; i < crops; i++)
+            buf[i] = q ? aimed[i].si_rmse : aimed[i].rmse;
+        int rc = pl_eval_quartiles(buf, crops, &st);
+        if (rc < 0) return rc;
+        if (q) fputc(',', f);
+        put_stats_json(f, q ? "si_rmse" : "rmse", &st, 1);
+    }
+    return 0;
+}
+
+/* One crop's JSON object: yaw, exposure scale, the scores of every method and of the model
+ * aimed at the room's key light ("key_aimed"), the model's estimate, the ground truth and (d)'s
+ * estimate when scored (lights JSON members, light/lights_json.h). */
 static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
 {
     fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g,\"frame_ev\":", pr->yaw[i], pr->k[i]);
@@ -399,19 +469,11 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
                                : "false");
     for (int m = 0; m < PL_EVAL_N_METHODS; m++) {
         if (m == PL_EVAL_RIDGE && !have_ridge) continue;
-        const pl_eval_scores *x = &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m];
-        fprintf(f, ",\"%s\":{\"rmse\":", pl_eval_method_key(m));
-        put_num(f, x->rmse);
-        fputs(",\"si_rmse\":", f);
-        put_num(f, x->si_rmse);
-        fputs(",\"angle_deg\":", f);
-        put_num(f, x->angle_deg);
-        fputs(",\"scale_ev\":", f);
-        put_num(f, x->scale_ev);
-        fputs(",\"render_rms\":", f);
-        put_num(f, x->render_rms);
-        fputc('}', f);
+        fprintf(f, ",\"%s\":", pl_eval_method_key(m));
+        put_scores_json(f, &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m]);
     }
+    fputs(",\"key_aimed\":", f);
+    put_scores_json(f, &pr->aimed[i]);
     char lj[PL_MAX_LIGHTS * 256 + 128];
     const pl_lighting *L[4] = {&pr->pred[i], &pr->gt[i], &pr->brightest[i], &pr->ridge[i]};
     const char *key[4] = {"estimate", "ground_truth", "brightest_estimate", "ridge_estimate"};
@@ -502,6 +564,35 @@ static int key_stats(const pano_row *rows, int n_rows, int crops, int ridge, dou
     return rc < 0 ? rc : pl_eval_quartiles(single, n_rows, &st[1]);
 }
 
+/* The model's lights aimed at each room's key light: rmse (st[0]) and si-RMSE (st[1]) over every
+ * crop, the same for its own lights (st[2], st[3]), and in how many rooms the aim lowers the
+ * median si-RMSE. */
+static int aimed_stats(const pano_row *rows, int n_rows, int crops, double *buf,
+                       pl_eval_stats st[4], int *rooms_lower)
+{
+    for (int q = 0; q < 4; q++) {
+        for (int r = 0; r < n_rows; r++)
+            for (int i = 0; i < crops; i++) {
+                const pl_eval_scores *x =
+                    q < 2 ? &rows[r].aimed[i] : &rows[r].s[(size_t)i * PL_EVAL_N_METHODS];
+                buf[r * crops + i] = q % 2 ? x->si_rmse : x->rmse;
+            }
+        int rc = pl_eval_quartiles(buf, n_rows * crops, &st[q]);
+        if (rc < 0) return rc;
+    }
+    *rooms_lower = 0;
+    for (int r = 0; r < n_rows; r++) {
+        pl_eval_stats own, aimed;
+        for (int i = 0; i < crops; i++)
+            buf[i] = rows[r].aimed[i].si_rmse;
+        int rc = pl_eval_quartiles(buf, crops, &aimed);
+        if (rc == 0) rc = stats_of(rows[r].s, crops, PL_EVAL_MODEL, 1, NULL, 0, buf, &own);
+        if (rc < 0) return rc;
+        *rooms_lower += aimed.median < own.median;
+    }
+    return 0;
+}
+
 /* The key-light table (text), or its "key_light_over_views" object (json). */
 static int put_key_lights(FILE *f, int json, const pano_row *rows, int n_rows, int crops,
                           int have_ridge, double *buf)
@@ -524,6 +615,16 @@ static int put_key_lights(FILE *f, int json, const pano_row *rows, int n_rows, i
             put_stats_json(f, "fused_angle_deg", &st[0], 1);
             fputc(',', f);
             put_stats_json(f, "room_median_angle_deg", &st[1], 1);
+            if (!m) {
+                pl_eval_stats a[4];
+                int lower;
+                if ((rc = aimed_stats(rows, n_rows, crops, buf, a, &lower)) < 0) return rc;
+                fputc(',', f);
+                put_stats_json(f, "aimed_rmse", &a[0], 1);
+                fputc(',', f);
+                put_stats_json(f, "aimed_si_rmse", &a[1], 1);
+                fprintf(f, ",\"rooms_aimed_si_rmse_lower\":%d", lower);
+            }
             fputc('}', f);
         } else {
             fprintf(f, "  %-24s", pl_eval_method_label(method));
@@ -532,7 +633,23 @@ static int put_key_lights(FILE *f, int json, const pano_row *rows, int n_rows, i
             fputc('\n', f);
         }
     }
-    if (json) fputc('}', f);
+    if (json) {
+        fputc('}', f);
+        return 0;
+    }
+    pl_eval_stats a[4];
+    int lower;
+    int rc = aimed_stats(rows, n_rows, crops, buf, a, &lower);
+    if (rc < 0) return rc;
+    fprintf(f, "  %-24s  %-28s  %-28s  %s\n", "model's lights", "rmse median [q1, q3]",
+            "si-rmse median [q1, q3]", "rooms where si-rmse is lower");
+    fprintf(f, "  %-24s", "own");
+    put_cell(f, &a[2], 28);
+    put_cell(f, &a[3], 0);
+    fprintf(f, "\n  %-24s", "aimed at the key light");
+    put_cell(f, &a[0], 28);
+    put_cell(f, &a[1], 28);
+    fprintf(f, "%d of %d\n", lower, n_rows);
     return 0;
 }
 
@@ -772,6 +889,8 @@ int cmd_eval(int argc, char **argv)
                 printf(",\"ridge\":");
                 put_num(stdout, pr->key_angle[1]);
             }
+            printf("},\"key_aimed\":{");
+            if (rc == 0) rc = put_aimed_json(stdout, pr->aimed, crops, buf);
             printf("},\"crops\":[");
             for (int i = 0; i < crops && rc == 0; i++) {
                 if (i) putchar(',');

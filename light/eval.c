@@ -288,7 +288,7 @@ int pl_eval_score(const pl_lighting *L, const pl_image_f32 *truth, const pl_ligh
 int pl_eval_crop(const pl_image_f32 *pano, const pl_lighting *pano_lights, const pl_crop_params *p,
                  const pl_image_u8 *ldr, double k, const pl_lighting *pred,
                  const pl_lighting *ridge_pred, int size, pl_eval_scores out[PL_EVAL_N_METHODS],
-                 pl_lighting *gt_out, pl_lighting *brightest_out)
+                 pl_lighting *gt_out, pl_lighting *brightest_out, pl_image_f32 *truth_out)
 {
     if (!pano || !pano_lights || !p || !ldr || !pred || !out)
         return pl_error(PL_E_ARG, "eval: NULL argument");
@@ -312,7 +312,10 @@ int pl_eval_crop(const pl_image_f32 *pano, const pl_lighting *pano_lights, const
         if ((rc = pl_eval_score(&L[m], &truth, &gt, &out[m])) < 0)
             pl_error_prefix(rc, "eval: %s", pl_eval_method_key(m));
     }
-    pl_image_f32_free(&truth);
+    if (rc == 0 && truth_out)
+        *truth_out = truth;
+    else
+        pl_image_f32_free(&truth);
     if (rc == 0 && gt_out) *gt_out = gt;
     if (rc == 0 && brightest_out) *brightest_out = L[PL_EVAL_BRIGHTEST];
     return rc;

@@ -121,11 +121,12 @@ int pl_eval_score(const pl_lighting *L, const pl_image_f32 *truth, const pl_ligh
  * it is NULL: (d) not scored). pano_lights in the panorama's frame (as
  * pl_extract_lights gives them), ldr and k from pl_eval_make_crop(pano, p). Reentrant: crops
  * can be scored on several threads at once. gt_out and brightest_out (each may be NULL) receive
- * the crop's ground truth and baseline (b)'s lighting. */
+ * the crop's ground truth and baseline (b)'s lighting; truth_out (may be NULL) the truth render,
+ * to score more lightings with pl_eval_score (the caller frees it; untouched on failure). */
 int pl_eval_crop(const pl_image_f32 *pano, const pl_lighting *pano_lights, const pl_crop_params *p,
                  const pl_image_u8 *ldr, double k, const pl_lighting *pred,
                  const pl_lighting *ridge_pred, int size, pl_eval_scores out[PL_EVAL_N_METHODS],
-                 pl_lighting *gt_out, pl_lighting *brightest_out);
+                 pl_lighting *gt_out, pl_lighting *brightest_out, pl_image_f32 *truth_out);
 
 /* Median and quartiles of the finite values among v[0..n) (NaN are left out): linear
  * interpolation between order statistics at positions q (n' - 1), q = 0.25, 0.5, 0.75 (numpy's

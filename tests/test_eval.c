@@ -229,10 +229,18 @@ static void test_crop(void)
     pl_lighting gt, pred;
     pl_crop_lighting(&gtp, &p, k, &pred); /* an estimate equal to the ground truth */
     pl_eval_scores s[PL_EVAL_N_METHODS];
-    if (pl_eval_crop(&pano, &gtp, &p, &ldr, k, &pred, NULL, 32, s, &gt, NULL) < 0) {
+    pl_image_f32 truth = {0, 0, NULL};
+    if (pl_eval_crop(&pano, &gtp, &p, &ldr, k, &pred, NULL, 32, s, &gt, NULL, &truth) < 0) {
         CHECK(0, "eval crop: %s", pl_last_error());
         goto done;
     }
+    /* the truth render handed back scores the estimate as eval did */
+    pl_eval_scores again;
+    CHECK(truth.width == 32 && pl_eval_score(&pred, &truth, &gt, &again) == 0 &&
+              again.rmse == s[PL_EVAL_MODEL].rmse && again.si_rmse == s[PL_EVAL_MODEL].si_rmse,
+          "truth_out: %dx%d, rmse %g against %g", truth.width, truth.height, again.rmse,
+          s[PL_EVAL_MODEL].rmse);
+    pl_image_f32_free(&truth);
     for (int m = 0; m < PL_EVAL_N_METHODS; m++)
         printf("%-24s rmse %.5f si_rmse %.5f angle %.2f scale EV %+.3f\n",
                pl_eval_method_label(m), s[m].rmse, s[m].si_rmse, s[m].angle_deg, s[m].scale_ev);

@@ -2,7 +2,8 @@
 # `parlight eval` end to end (docs/EVAL.md): on a panorama made here with `parlight render` from one
 # strong light (its extracted lights, baseline (c), must beat the mean-ambient baseline (a) by far),
 # with a file that is not a panorama beside it (reported, counted, skipped); the JSON's shape; the
-# same numbers with 1 and 2 threads; the text table and --per-pano; bad inputs (exit 1 or 2 with
+# same numbers with 1 and 2 threads; the key light and the model aimed at it (estimate --aim) per
+# room; the text table and --per-pano; bad inputs (exit 1 or 2 with
 # a message naming the problem). Then 2 crops of 2 panoramas of ../shared/data/hdri/eval when it
 # is there (that part is skipped without it). Model: build/models/seeded-n3.plm (seeded weights:
 # the model's numbers mean nothing, the plumbing is what is tested).
@@ -101,6 +102,29 @@ v = sorted(x for x in mine if x is not None)
 med = (v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2])) if v else None
 got = kl.get("model", {}).get("fused_angle_deg", {}).get("median")
 need((med is None and got is None) or (got is not None and abs(got - med) < 0.05), f"fused median {got}, recomputed {med}")
+# the model aimed at each room's key light (estimate --aim): its primary IS the key light, so
+# every crop's aimed angle is the room's key-light angle; the statistics are its crops'
+def median(v):
+    v = sorted(x for x in v if x is not None)
+    return (v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2])) if v else None
+lower = 0
+for p in d.get("panoramas", []):
+    ka = p.get("key_light_angle_deg", {}).get("model")
+    for cr in p["crops"]:
+        a_ = cr.get("key_aimed", {})
+        need(all(k in a_ for k in ("rmse", "si_rmse", "angle_deg", "scale_ev", "render_rms")), f"crop key_aimed {a_}")
+        need(ka is None or (a_.get("angle_deg") is not None and abs(a_["angle_deg"] - ka) < 0.05),
+             f"{p['file']} yaw {cr['yaw_deg']}: aimed angle {a_.get('angle_deg')}, key light angle {ka}")
+    pa = p.get("key_aimed", {})
+    for k in ("rmse", "si_rmse"):
+        got, want = pa.get(k, {}).get("median"), median(cr["key_aimed"][k] for cr in p["crops"])
+        need(got is not None and abs(got - want) <= 1e-5 * max(1, want), f"{p['file']} key_aimed.{k} {got}, crops say {want}")
+    lower += median(cr["key_aimed"]["si_rmse"] for cr in p["crops"]) < median(cr["model"]["si_rmse"] for cr in p["crops"])
+m = kl.get("model", {})
+for k in ("rmse", "si_rmse"):
+    got, want = m.get("aimed_" + k, {}).get("median"), median(cr["key_aimed"][k] for p in d["panoramas"] for cr in p["crops"])
+    need(got is not None and abs(got - want) <= 1e-5 * max(1, want), f"aimed_{k} {got}, crops say {want}")
+need(m.get("rooms_aimed_si_rmse_lower") == lower, f"rooms_aimed_si_rmse_lower {m.get('rooms_aimed_si_rmse_lower')}, crops say {lower}")
 print("\n".join("FAIL: " + e for e in err) or f"ok   JSON shape of {path}: (a) rmse {a['rmse']['median']:.4g}, (c) rmse {c['rmse']['median']:.4g}")
 sys.exit(1 if err else 0)
 PY
@@ -165,7 +189,8 @@ grep -qE "angle deg, primary light +in view \(1 crop\) +out of view \(1 crop\)" 
     fail "text output lacks the angle-by-view table"
 
 expect 0 "" -- "$P" eval --model "$M" --hdr "$T/synth" --crops 1 --size 16 --per-pano
-for w in "rmse median" "^  model " "\(a\) mean ambient" "\(b\) brightest" "\(c\) gt lights" "^one.exr"; do
+for w in "rmse median" "^  model " "\(a\) mean ambient" "\(b\) brightest" "\(c\) gt lights" "^one.exr" \
+    "^  key light, 1 room " "^  own  " "^  aimed at the key light .* of 1\$"; do
     grep -qE -- "$w" "$T/out" || fail "text output lacks /$w/"
 done
 
