@@ -61,6 +61,8 @@ for i in range(32):
     print(json.dumps({"frame": i, "q": [math.cos(a / 2), 0, -math.sin(a / 2), 0]}))' >"$T/poses.jsonl"
 expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --input "$T/png" --poses "$T/poses.jsonl" --fuse 0
 cp "$T/out" "$T/cli-fuse.jsonl"
+expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --input "$T/png" --poses "$T/poses.jsonl" --fuse 0 --aim 3
+cp "$T/out" "$T/cli-aim.jsonl"
 
 timeout 600 env PYTHONPATH=python PARLIGHT_LIB="$LIB" "$PY" - "$T" "$POSE" "$LIB" <<'PY' >"$T/py.log" 2>&1
 import glob, json, math, os, sys
@@ -177,6 +179,17 @@ with Model(int8) as m, parlight.KeyFuser(0) as k, parlight.KeyFuser(0) as k2:
             ok(f"fuse: frame {i}: KeyFuser.add of the CLI's camera line gives its key light")
         else:
             fail(f"fuse: frame {i}: KeyFuser.add gave {kl}, the CLI {c['key_light']}")
+    with open(os.path.join(T, "cli-aim.jsonl")) as f:
+        cli_aim = [json.loads(l) for l in f]
+    with parlight.KeyFuser(0) as k3:
+        for i, (rgb_i, c) in enumerate(zip(frames, cli_aim)):
+            py = m.estimate(rgb_i, pose=poses[i], fuse=k3, frame=i, aim=3)
+            moved = py["primary"]["dir"] == py["key_light"]["dir"] != cli[i]["primary"]["dir"]
+            (ok if same(py, c) and (i < 2 or moved) else fail)(
+                f"aim=3: frame {i}: the CLI's --aim 3 line (primary {'turned' if moved else 'as it was'})")
+    raises("aim without fuse", ValueError, "needs fuse", lambda: m.estimate(rgb, pose=POSE, aim=3))
+    raises("aim 0", ValueError, "1..24", lambda: m.estimate(rgb, pose=POSE, fuse=k, aim=0))
+    raises("aim True", ValueError, "1..24", lambda: m.estimate(rgb, pose=POSE, fuse=k, aim=True))
     raises("fuse without a pose", ValueError, "pose", lambda: m.estimate(rgb, fuse=k))
     raises("fuse not a KeyFuser", TypeError, "KeyFuser", lambda: m.estimate(rgb, pose=POSE, fuse=3))
     raises("a NaN fuse_t", ValueError, "finite", lambda: m.estimate(rgb, pose=POSE, fuse=k,

@@ -10,7 +10,8 @@ by the library's own pl_frame_format_json and parsed with json.loads: the same f
 the same pixels the same numbers, as the CLI.
 
 KeyFuser is the room's key light fused over the headings a camera has seen (pl_key_fuser_*):
-m.estimate(rgb, pose=q, fuse=k) adds the line's "key_light" as `estimate --poses ... --fuse` does.
+m.estimate(rgb, pose=q, fuse=k) adds the line's "key_light" as `estimate --poses ... --fuse` does;
+aim=3 turns the primary light to it from 3 headings on (`--aim 3`).
 
 Finding the library, first hit wins: the `lib` argument (a path), $PARLIGHT_LIB (a path), the
 build/ folder of the checkout this package sits in (python/../build/libparlight.so), then
@@ -120,6 +121,9 @@ _SIGNATURES = {  # name: (restype, argtypes), as declared in include/parlight.h
     "pl_key_fuser_add": (ctypes.c_int, [_P, ctypes.POINTER(_Lighting),
                                         ctypes.POINTER(ctypes.c_double), ctypes.c_double]),
     "pl_key_fuser_get": (ctypes.c_int, [_P, ctypes.c_double, ctypes.POINTER(_KeyLight)]),
+    "pl_lighting_aim_primary": (ctypes.c_int, [ctypes.POINTER(_Lighting),
+                                               ctypes.POINTER(ctypes.c_float),
+                                               ctypes.POINTER(_Lighting)]),
 }
 
 _libs = {}
@@ -339,7 +343,7 @@ class Model(_Owned):
         return out
 
     def estimate(self, rgb, pose=None, at=None, frame=0, t_ns=None, source="", fuse=None,
-                 fuse_t=None):
+                 fuse_t=None, aim=None):
         """Lighting of one frame, as the dict of `parlight estimate`'s JSON line.
 
         rgb     H x W x 3 numpy uint8 array, RGB order, at least 8 x 8 (copied when not
@@ -355,6 +359,8 @@ class Model(_Owned):
         fuse    None or a KeyFuser (needs pose): the frame's own lights join it at time fuse_t
                 (seconds; default t_ns / 1e9) and the line gets its "key_light", as the CLI's
                 --poses ... --fuse prints it
+        aim     None or N in 1..24 (needs fuse): once the key light rests on N headings or more,
+                the frame's primary light is turned to it, as the CLI's --aim N
         """
         if fuse is not None:
             if not isinstance(fuse, KeyFuser):
@@ -362,6 +368,13 @@ class Model(_Owned):
             if pose is None:
                 raise ValueError("parlight: fuse needs the camera's pose (pose=...): the key "
                                  "light is fused in world space")
+        if aim is not None:
+            if fuse is None:
+                raise ValueError("parlight: aim turns the lights to the fused key light: it "
+                                 "needs fuse=KeyFuser(...)")
+            if isinstance(aim, bool) or not isinstance(aim, int) or not 1 <= aim <= 24:
+                raise ValueError(f"parlight: aim must be an integer in 1..24 (headings), "
+                                 f"not {aim!r}")
         a = _as_rgb(rgb)
         q = R = p = None
         if pose is not None:
@@ -400,6 +413,10 @@ class Model(_Owned):
             key = fuse._add_get(L, R, fuse_t)
         if R is not None:
             self._lib.pl_lighting_rotate(ctypes.byref(L), R, ctypes.byref(L))
+        if aim is not None and key.views >= aim:  # world space: the key's dir as it is
+            st = self._lib.pl_lighting_aim_primary(ctypes.byref(L), key.dir, ctypes.byref(L))
+            if st < 0:
+                raise _error(self._lib, st)
         if p is not None:
             st = self._lib.pl_lighting_at_point(ctypes.byref(L), p, ctypes.byref(L))
             if st < 0:
