@@ -80,6 +80,32 @@ assert r[8]["sweeps"] == 1 and abs(r[8]["single_median_deg"] - single) < 1e-9, r
 assert r[3]["sweeps"] == 8 and 0 <= r[3]["fused_closer"] <= 8, r[3]
 PY
     fail "fuse_sweeps.py: $(head -c 300 "$T/out")"
+# its intensity over views, by hand: two crops, total energies 2 and 1 at the same exposure, so
+# the room's intensity is 2^0.5 and the crops take factors 2^-0.5 and 2^0.5; with si 0, render
+# RMS 1 and alpha = those factors, their RMSE falls from |1 - alpha| to 0
+$PY - "$T/hand.json" <<'PY'
+import json, math, sys
+sys.path.insert(0, "tests")
+from fuse_ref import sg_integral
+def crop(yaw, e, ev):  # total energy e: one light of 1 sr, no ambient
+    return {"yaw_deg": yaw, "exposure_scale": 0.5,
+            "model": {"rmse": abs(1 - 2 ** ev), "si_rmse": 0, "scale_ev": ev, "render_rms": 1, "angle_deg": 90},
+            "estimate": {"lights": [{"dir": [0, 1, 0], "distance_m": 2, "solid_angle_sr": 1,
+                                     "rgb": [e / sg_integral(1)] * 3}], "ambient": [0, 0, 0]},
+            "ground_truth": {"lights": [{"dir": [0, 1, 0], "distance_m": 2, "solid_angle_sr": 1, "rgb": [1, 1, 1]}],
+                             "ambient": [0, 0, 0]}}
+json.dump({"panoramas": [{"file": "hand", "crops": [crop(0, 2, -0.5), crop(180, 1, 0.5)]}]},
+          open(sys.argv[1], "w"))
+PY
+expect 0 "" -- $PY tools/train/fuse_sweeps.py "$T/hand.json" --views 2,1 --json
+$PY - "$T/out" <<'PY' && ok "fuse_sweeps.py: intensity over views, by hand (0.293 -> 0; one view: unchanged)" ||
+import json, sys
+r = {row["views"]: row for row in json.load(open(sys.argv[1]))["rows"]}
+assert abs(r[2]["rmse_own_median"] - (1 - 2 ** -0.5 + 2 ** 0.5 - 1) / 2) < 1e-12, r[2]
+assert abs(r[2]["rmse_views_median"]) < 1e-12 and r[2]["rooms_rmse_lower"] == 1, r[2]
+assert r[1]["rmse_views_median"] == r[1]["rmse_own_median"] and r[1]["rooms_rmse_lower"] == 0, r[1]
+PY
+    fail "fuse_sweeps.py intensity: $(head -c 400 "$T/out")"
 expect 1 "fewer than 9 views" -- $PY tools/train/fuse_sweeps.py "$T/eval.json" --views 9
 expect 1 "No such file" -- $PY tools/train/fuse_sweeps.py "$T/none.json"
 
