@@ -143,7 +143,7 @@ typedef struct pano_row {
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
     pl_eval_scores *aimed;  /* [crops]: the model aimed at the room's key light (room_key) */
     double key_angle[2];    /* key light over the crops' views (model, ridge): angle to the
-                               truth's primary in degrees, NAN when undefined (key_light()) */
+                               truth's primary in degrees, NAN when undefined (room_key, key_angle) */
 } pano_row;
 
 #define SKIP_FILE 1
@@ -162,8 +162,8 @@ static int primary_in_view(const pl_lighting *gt, const pl_crop_params *p)
 }
 
 /* The key light fused over a room's views (light/fuse.h), each crop a view turned into the
- * panorama's frame by its camera's rotation, against the panorama's primary light: the angle in
- * degrees, NAN when the truth has no light or no view holds light. */
+ * panorama's frame by its camera's rotation (the model's lights, or (d)'s with ridge): 0, or -1
+ * when no view holds light. */
 static int room_key(const crop_job *jobs, int crops, int ridge, float key[3])
 {
     pl_fuser fu;
@@ -176,27 +176,28 @@ static int room_key(const crop_job *jobs, int crops, int ridge, float key[3])
     return pl_fuser_key(&fu, 0, key, NULL) < 0 ? -1 : 0;
 }
 
-static double key_light(const crop_job *jobs, int crops, int ridge, const pl_lighting *truth)
+/* The angle in degrees from a room's key light (NULL: none) to the panorama's primary light;
+ * NAN when either is missing. */
+static double key_angle(const float *key, const pl_lighting *truth)
 {
-    float key[3], dir[3], rgb[3];
-    if (truth->n_lights <= 0 || room_key(jobs, crops, ridge, key) < 0) return NAN;
+    float dir[3], rgb[3];
+    if (!key || truth->n_lights <= 0) return NAN;
     pl_lighting_primary(truth, dir, rgb);
     return pl_eval_angle_deg(key, dir);
 }
 
-/* Each crop's estimate with its primary light turned to the room's key light over all its
- * crops (what `parlight estimate --aim` gives once it has seen them: docs/OUTPUT.md). */
-static void aim_crops(crop_job *jobs, int crops)
+/* Each crop's estimate with its primary light turned to the room's key light (NULL: none), the
+ * key over all its crops: what `parlight estimate --aim` gives once it has seen them
+ * (docs/OUTPUT.md). */
+static void aim_crops(crop_job *jobs, int crops, const float *key)
 {
-    float key[3];
-    const int have = room_key(jobs, crops, 0, key) == 0;
     for (int i = 0; i < crops; i++) {
         crop_job *j = &jobs[i];
         double R[9];
         float kc[3];
         pl_crop_rotation(&j->p, R);
-        pl_rotate3_inverse(R, key, kc);
-        j->have_aimed = have && pl_lighting_aim_primary(&j->pred, kc, &j->aimed) >= 0;
+        if (key) pl_rotate3_inverse(R, key, kc);
+        j->have_aimed = key && pl_lighting_aim_primary(&j->pred, kc, &j->aimed) >= 0;
         if (!j->have_aimed)
             j->aimed_s.rmse = j->aimed_s.si_rmse = j->aimed_s.scale_ev = j->aimed_s.render_rms =
                 j->aimed_s.angle_deg = NAN;
@@ -262,7 +263,9 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
             &j->pred);
     }
     const int64_t t2 = pl_now_ns();
-    aim_crops(jobs, crops);
+    float key[3];
+    const int have_key = room_key(jobs, crops, 0, key) == 0;
+    aim_crops(jobs, crops, have_key ? key : NULL);
     pl_pool_for(pool, crops, score_crops, &ctx);
     ms[0] += (double)(t1 - t0) / 1e6;
     ms[1] += (double)(t2 - t1) / 1e6;
@@ -305,8 +308,11 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->aimed[i] = jobs[i].aimed_s;
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
     }
-    r->key_angle[0] = key_light(jobs, crops, 0, &lights);
-    r->key_angle[1] = ridge ? key_light(jobs, crops, 1, &lights) : NAN;
+    float ridge_key[3];
+    r->key_angle[0] = key_angle(have_key ? key : NULL, &lights);
+    r->key_angle[1] = ridge && room_key(jobs, crops, 1, ridge_key) == 0
+                          ? key_angle(ridge_key, &lights)
+                          : NAN;
     return 0;
 }
 
