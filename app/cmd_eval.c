@@ -75,9 +75,9 @@ typedef struct crop_job {
     pl_lighting brightest; /* baseline (b)'s lighting, for the JSON */
     double frame_ev; /* log2(frame's mean luminance / the estimate's), pl_anchor_ratio_ev */
     pl_eval_scores s[PL_EVAL_N_METHODS];
-    pl_lighting aimed;       /* pred with its primary turned to the room's key light */
-    int have_aimed;          /* 0: the room has no key light (aimed_s all NaN) */
-    pl_eval_scores aimed_s;  /* aimed's scores */
+    pl_lighting aimed;      /* pred with its primary turned to the room's key light */
+    int have_aimed;         /* 0: the room has no key light (aimed_s all NaN) */
+    pl_eval_scores aimed_s; /* aimed's scores */
     int rc;
     char err[512];
 } crop_job;
@@ -122,8 +122,8 @@ static void score_crops(void *vctx, int begin, int end)
         rc = pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred,
                           c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt, &j->brightest,
                           &truth);
-        if (rc == 0 && j->have_aimed && (rc = pl_eval_score(&j->aimed, &truth, &j->gt,
-                                                            &j->aimed_s)) < 0)
+        if (rc == 0 && j->have_aimed &&
+            (rc = pl_eval_score(&j->aimed, &truth, &j->gt, &j->aimed_s)) < 0)
             pl_error_prefix(rc, "eval: aimed at the key light");
         pl_image_f32_free(&truth);
         if (rc < 0) record_error(j, rc);
@@ -143,7 +143,7 @@ typedef struct pano_row {
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
     pl_eval_scores *aimed;  /* [crops]: the model aimed at the room's key light (room_key) */
     double key_angle[2];    /* key light over the crops' views (model, ridge): angle to the
-                               truth's primary in degrees, NAN when undefined (room_key, key_angle) */
+                               truth's primary in degrees, NAN when undefined (key_angle) */
 } pano_row;
 
 #define SKIP_FILE 1
@@ -310,9 +310,8 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     }
     float ridge_key[3];
     r->key_angle[0] = key_angle(have_key ? key : NULL, &lights);
-    r->key_angle[1] = ridge && room_key(jobs, crops, 1, ridge_key) == 0
-                          ? key_angle(ridge_key, &lights)
-                          : NAN;
+    const int have_ridge_key = ridge && room_key(jobs, crops, 1, ridge_key) == 0;
+    r->key_angle[1] = key_angle(have_ridge_key ? ridge_key : NULL, &lights);
     return 0;
 }
 

@@ -237,8 +237,8 @@ int pl_lighting_primary(const pl_lighting *L, float dir[3], float rgb[3])
 int pl_lighting_aim_primary(const pl_lighting *L, const float dir[3], pl_lighting *out)
 {
     if (!L || !dir || !out) return pl_error(PL_E_ARG, "pl_lighting_aim_primary: NULL argument");
-    const double n = sqrt((double)dir[0] * dir[0] + (double)dir[1] * dir[1] +
-                          (double)dir[2] * dir[2]);
+    const double n =
+        sqrt((double)dir[0] * dir[0] + (double)dir[1] * dir[1] + (double)dir[2] * dir[2]);
     if (!(n > 1e-12) || !isfinite(n))
         return pl_error(PL_E_ARG, "pl_lighting_aim_primary: the direction (%g, %g, %g) is %s",
                         (double)dir[0], (double)dir[1], (double)dir[2],

@@ -326,7 +326,8 @@ static void test_aim(void)
         CHECK(pl_key_fuser_add(k, &L, R, v) == 0, "add %d", v);
     }
     CHECK(pl_key_fuser_get(k, 3, &key) == 0 && key.views == 3, "key of 3 views");
-    /* the last view (v 2): its brighter lobe 0 stays put in the camera, the room's light is lobe 1 */
+    /* the last view (v 2): its brighter lobe 0 stays put in the camera; the room's light is
+     * lobe 1 */
     double kc[3], tc[3];
     to_cam(R, (double[3]){key.dir[0], key.dir[1], key.dir[2]}, kc);
     to_cam(R, TRI_LIGHT, tc);
@@ -334,8 +335,8 @@ static void test_aim(void)
     CHECK(pl_lighting_aim_primary(&L, kcf, &A) == 0, "aimed: primary is light 0");
     CHECK(deg_between(A.lights[0].dir, tc) < 3, "aimed primary %.2f deg from the room's light",
           deg_between(A.lights[0].dir, tc));
-    CHECK(fabs(sqrt(A.lights[0].dir[0] * A.lights[0].dir[0] + A.lights[0].dir[1] * A.lights[0].dir[1] +
-                    A.lights[0].dir[2] * A.lights[0].dir[2]) - 1) < 1e-6,
+    const float *ad = A.lights[0].dir;
+    CHECK(fabs(sqrt(ad[0] * ad[0] + ad[1] * ad[1] + ad[2] * ad[2]) - 1) < 1e-6,
           "a dir of length 2 is normalised");
     CHECK(A.n_lights == L.n_lights && !memcmp(&A.lights[1], &L.lights[1], sizeof L.lights[1]) &&
               !memcmp(A.ambient, L.ambient, sizeof L.ambient) &&
