@@ -73,7 +73,7 @@ extern "C" {
 #define PARLIGHT_VERSION_MAJOR 0
 #define PARLIGHT_VERSION_MINOR 7
 #define PARLIGHT_VERSION_PATCH 0
-#define PARLIGHT_VERSION "0.7.0"
+#define PARLIGHT_VERSION "0.8.0"
 PL_API const char *pl_version(void);
 
 typedef enum pl_status {
@@ -337,6 +337,27 @@ PL_API int pl_key_fuser_add(pl_key_fuser *fuser, const pl_lighting *cam, const d
  * out->views 0 when no kept frame holds light; PL_E_ARG for a NULL argument or a time that is
  * not finite. */
 PL_API int pl_key_fuser_get(const pl_key_fuser *fuser, double t_s, pl_key_light *out);
+
+/* The room's intensity over views (models/MODEL_CARD.md, "Intensity over views"). Auto exposure
+ * hides how bright a room is, and one frame's intensity misses by up to a stop and a half either
+ * way; the camera's exposure, which an AR app knows (ARKit's exposure duration and offset,
+ * ARCore's image metadata, V4L2's exposure and gain controls), gives it back. Measured on the
+ * evaluation rooms over a full turn: RMSE 0.688 -> 0.351 (below the constant-ambient baseline's
+ * 0.500) in every room. pl_key_fuser_add_exposed is pl_key_fuser_add with the frame's exposure:
+ * what the camera multiplied the scene's radiance by (exposure time x analog x digital gain x
+ * 2^exposure offset, in any unit that stays the same for the stream; > 0 and finite, PL_E_ARG
+ * otherwise, the fuser then unchanged). Each kept frame records its level, log2 of its
+ * lighting's total energy over its exposure; the room's level is their mean. */
+PL_API int pl_key_fuser_add_exposed(pl_key_fuser *fuser, const pl_lighting *cam, const double R[9],
+                                    double t_s, double exposure);
+/* L (any frame: camera or world space, aimed or not) brought to the room's level at time t_s:
+ * its lights' colours and its ambient times 2^level x exposure / (L's total energy), exposure
+ * being L's frame's (as given to pl_key_fuser_add_exposed). Returns how many kept frames the
+ * level rests on; with none, or when L has no energy, *out = *L. out may be L. PL_E_ARG for a
+ * NULL argument, a time that is not finite, an exposure that is not > 0 and finite, or an
+ * invalid L; out is then untouched. */
+PL_API int pl_key_fuser_level(const pl_key_fuser *fuser, double t_s, const pl_lighting *L,
+                              double exposure, pl_lighting *out);
 
 /* ---- the JSON line ------------------------------------------------------------------------ */
 

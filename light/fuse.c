@@ -27,7 +27,7 @@ int pl_fuser_init(pl_fuser *f, double max_age_s)
 void pl_fuser_reset(pl_fuser *f)
 {
     for (int b = 0; b < PL_FUSE_BINS; b++)
-        f->bins[b].n = 0;
+        f->bins[b].n = f->bins[b].has_level = 0;
 }
 
 static int rotation_ok(const double R[9])
@@ -55,15 +55,26 @@ static int bin_of(const double fw[3])
 
 int pl_fuser_add(pl_fuser *f, const pl_lighting *cam, const double R[9], double t_s)
 {
+    return pl_fuser_add_exposed(f, cam, R, t_s, 0);
+}
+
+int pl_fuser_add_exposed(pl_fuser *f, const pl_lighting *cam, const double R[9], double t_s,
+                         double exposure)
+{
     if (!f || !cam || !R) return pl_error(PL_E_ARG, "fuse: NULL argument");
     int rc = pl_lighting_check(cam);
     if (rc < 0) return pl_error_prefix(rc, "fuse");
     if (!rotation_ok(R))
         return pl_error(PL_E_ARG, "fuse: the camera-to-world matrix is not a rotation");
     if (!isfinite(t_s)) return pl_error(PL_E_ARG, "fuse: time %g s is not finite", t_s);
+    if (exposure != 0 && !(exposure > 0 && isfinite(exposure)))
+        return pl_error(PL_E_ARG, "fuse: exposure %g: expected a finite number > 0", exposure);
 
     double fw[3] = {-R[2], -R[5], -R[8]}; /* R (0, 0, -1) */
     pl_fuse_view *v = &f->bins[bin_of(fw)];
+    double energy = 4 * M_PI * pl_lighting_mean_luminance(cam);
+    v->has_level = exposure > 0 && energy > 0 && isfinite(energy);
+    v->level = v->has_level ? log2(energy / exposure) : 0;
     double total = 0;
     for (int i = 0; i < cam->n_lights; i++)
         total += pl_light_energy(&cam->lights[i]);
@@ -90,9 +101,24 @@ int pl_fuser_add(pl_fuser *f, const pl_lighting *cam, const double R[9], double 
     return 0;
 }
 
+static int fresh(const pl_fuser *f, const pl_fuse_view *v, double t_s)
+{
+    return f->max_age_s <= 0 || t_s - v->t_s <= f->max_age_s;
+}
+
 static int live(const pl_fuser *f, const pl_fuse_view *v, double t_s)
 {
-    return v->n > 0 && (f->max_age_s <= 0 || t_s - v->t_s <= f->max_age_s);
+    return v->n > 0 && fresh(f, v, t_s);
+}
+
+int pl_fuser_level(const pl_fuser *f, double t_s, double *level)
+{
+    double sum = 0;
+    int n = 0;
+    for (int b = 0; b < PL_FUSE_BINS; b++)
+        if (f->bins[b].has_level && fresh(f, &f->bins[b], t_s)) sum += f->bins[b].level, n++;
+    *level = n ? sum / n : 0;
+    return n;
 }
 
 static int live_views(const pl_fuser *f, double t_s)
@@ -207,4 +233,42 @@ int pl_key_fuser_get(const pl_key_fuser *fuser, double t_s, pl_key_light *out)
         return 0;
     }
     return pl_fuser_key(&fuser->f, t_s, out->dir, &out->views);
+}
+
+int pl_key_fuser_add_exposed(pl_key_fuser *fuser, const pl_lighting *cam, const double R[9],
+                             double t_s, double exposure)
+{
+    if (!fuser) return pl_error(PL_E_ARG, "pl_key_fuser_add_exposed: NULL fuser");
+    if (!(exposure > 0 && isfinite(exposure)))
+        return pl_error(PL_E_ARG,
+                        "pl_key_fuser_add_exposed: exposure %g: expected a finite "
+                        "number > 0",
+                        exposure);
+    return pl_fuser_add_exposed(&fuser->f, cam, R, t_s, exposure);
+}
+
+int pl_key_fuser_level(const pl_key_fuser *fuser, double t_s, const pl_lighting *L, double exposure,
+                       pl_lighting *out)
+{
+    if (!fuser || !L || !out) return pl_error(PL_E_ARG, "pl_key_fuser_level: NULL argument");
+    if (!isfinite(t_s))
+        return pl_error(PL_E_ARG, "pl_key_fuser_level: time %g s is not finite", t_s);
+    if (!(exposure > 0 && isfinite(exposure)))
+        return pl_error(PL_E_ARG, "pl_key_fuser_level: exposure %g: expected a finite number > 0",
+                        exposure);
+    int rc = pl_lighting_check(L);
+    if (rc < 0) return pl_error_prefix(rc, "pl_key_fuser_level");
+    double level;
+    const int n = pl_fuser_level(&fuser->f, t_s, &level);
+    const double energy = 4 * M_PI * pl_lighting_mean_luminance(L);
+    if (out != L) *out = *L;
+    if (n == 0 || !(energy > 0) || !isfinite(energy)) return n;
+    const double c = exp2(level) * exposure / energy;
+    if (!isfinite(c)) return n; /* a level beyond float's range: leave the frame as it is */
+    for (int i = 0; i < out->n_lights; i++)
+        for (int k = 0; k < 3; k++)
+            out->lights[i].rgb[k] = (float)(out->lights[i].rgb[k] * c);
+    for (int k = 0; k < 3; k++)
+        out->ambient[k] = (float)(out->ambient[k] * c);
+    return n;
 }

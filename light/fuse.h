@@ -27,6 +27,14 @@
  *             1e-9 rad or PL_FUSE_REFINE steps.
  *   age       With max_age_s > 0 a view older than that (by the t_s given) no longer counts:
  *             walking into another room, the old room's views drop out. 0: views never expire.
+ *   level     A view added with its exposure (what the camera multiplied the scene's radiance
+ *             by: exposure time x gain, in any unit the stream keeps) also records its level,
+ *             log2 of the view's total energy (lights and ambient: 4 pi x the lighting's mean
+ *             luminance) over that exposure: the room's brightness as that view saw it. The
+ *             room's level is the mean of the kept views' levels (a geometric mean of their
+ *             energies), and a frame is brought to it by one factor, 2^level x its exposure
+ *             over its own energy (models/MODEL_CARD.md, "Intensity over views"). Views added
+ *             without an exposure record no level (and replace their bin's).
  *
  * No allocation; one fuser per stream, not thread-safe. ~PL_FUSE_BINS * N * PL_FUSE_DIRS
  * exponentials per pl_fuser_key call at most (24 x 3 x 1024 for a 3-light model). */
@@ -48,6 +56,8 @@ typedef struct pl_fuse_view {
     double dir[PL_MAX_LIGHTS][3]; /* world space, unit */
     double w[PL_MAX_LIGHTS];      /* peak: share of the view's light energy / lobe integral */
     double lambda[PL_MAX_LIGHTS]; /* 1 / sigma_i = 4 pi / s_i */
+    int has_level;                /* added with an exposure and some energy */
+    double level;                 /* log2(total energy / exposure) */
 } pl_fuse_view;
 
 typedef struct pl_fuser {
@@ -67,9 +77,18 @@ void pl_fuser_reset(pl_fuser *f);
  * the state unchanged. */
 int pl_fuser_add(pl_fuser *f, const pl_lighting *cam, const double R[9], double t_s);
 
+/* pl_fuser_add with the view's exposure (> 0 and finite; PL_E_ARG otherwise), recording its
+ * level; 0 records none (pl_fuser_add). */
+int pl_fuser_add_exposed(pl_fuser *f, const pl_lighting *cam, const double R[9], double t_s,
+                         double exposure);
+
 /* The key light's direction (world space, unit) at time t_s, and how many views it rests on
  * (bins holding light, not expired; may be NULL). Returns 0, or PL_E_ARG when no view holds
  * light (dir is then (0, 1, 0), WebXR's default primary direction, and *views 0). */
 int pl_fuser_key(const pl_fuser *f, double t_s, float dir[3], int *views);
+
+/* The room's level at time t_s: the mean of the kept views' levels (not expired) into *level, and
+ * how many views it rests on (the return value, 0 when none has a level: *level is then 0). */
+int pl_fuser_level(const pl_fuser *f, double t_s, double *level);
 
 #endif

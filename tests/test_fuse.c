@@ -5,7 +5,8 @@
  * search grid's spacing is still found; bad arguments are refused and leave the state alone.
  * The public handle (pl_key_fuser_*, include/parlight.h) gives the internal fuser's answer bit
  * for bit, and pl_frame_format_json_key writes it as the CLI does. pl_lighting_aim_primary turns
- * a frame's primary light, and nothing else, to the key light. */
+ * a frame's primary light, and nothing else, to the key light. pl_key_fuser_level brings a frame to
+ * the mean level (log2 energy over exposure) of the kept exposed views, and only those. */
 #include <string.h>
 
 #include "core/json.h"
@@ -365,6 +366,108 @@ static void test_aim(void)
     pl_key_fuser_free(k);
 }
 
+/* A view of the triangulation's room with its energy times 2^s and its exposure times 2^x. */
+static void exposed_view(int v, double s, pl_lighting *L, double R[9])
+{
+    heading_R(v * M_PI / 2, R);
+    memset(L, 0, sizeof *L);
+    L->n_lights = 2;
+    L->lights[0] = lobe(0.6, 0.4, -0.7, 2.5f, (float)(0.55 * exp2(s)));
+    L->lights[1] = lobe(-0.2, 0.9, 0.1, 0.3f, (float)(4.0 * exp2(s)));
+    L->ambient[0] = (float)(0.3 * exp2(s)), L->ambient[1] = (float)(0.25 * exp2(s));
+    L->ambient[2] = (float)(0.2 * exp2(s));
+}
+
+static double total_energy(const pl_lighting *L)
+{
+    return 4 * M_PI * pl_lighting_mean_luminance(L);
+}
+
+static void test_level(void)
+{
+    pl_key_fuser *k = NULL;
+    pl_lighting L, F, G;
+    double R[9];
+    CHECK(pl_key_fuser_new(10, &k) == 0, "new");
+    exposed_view(0, 0, &L, R);
+    const double e0 = total_energy(&L);
+    CHECK(pl_key_fuser_level(k, 0, &L, 1, &F) == 0 && !memcmp(&F, &L, sizeof F),
+          "no view yet: the frame as it is");
+    /* levels log2(E / exposure) of four headings: e0 x 2^{1, 2, 3, 6}, mean 3; view 1 at half
+     * the exposure and half the energy (auto exposure): the same level as at exposure 1 */
+    const double s[4] = {1, 2, 3, 6}, x[4] = {0, 1, 0, 0};
+    for (int v = 0; v < 4; v++) {
+        exposed_view(v, s[v] - x[v], &L, R);
+        CHECK(pl_key_fuser_add_exposed(k, &L, R, v, exp2(-x[v])) == 0, "add exposed %d", v);
+    }
+    /* a frame of heading 0 at exposure 0.5 with some lighting: 2^3 e0 x 0.5 after */
+    exposed_view(0, -1.5, &L, R);
+    CHECK(pl_key_fuser_level(k, 4, &L, 0.5, &F) == 4, "four views");
+    const double want = exp2(3) * e0 * 0.5, c = want / total_energy(&L);
+    CHECK(fabs(total_energy(&F) / want - 1) < 1e-5, "energy %.6g, want %.6g (mean level)",
+          total_energy(&F), want);
+    int same = F.n_lights == L.n_lights;
+    for (int i = 0; i < L.n_lights; i++) {
+        same &= !memcmp(F.lights[i].dir, L.lights[i].dir, sizeof L.lights[i].dir) &&
+                F.lights[i].solid_angle_sr == L.lights[i].solid_angle_sr &&
+                F.lights[i].distance_m == L.lights[i].distance_m;
+        for (int j = 0; j < 3; j++)
+            same &= fabs(F.lights[i].rgb[j] / (L.lights[i].rgb[j] * c) - 1) < 1e-6;
+    }
+    for (int j = 0; j < 3; j++)
+        same &= fabs(F.ambient[j] / (L.ambient[j] * c) - 1) < 1e-6;
+    CHECK(same, "one factor on colours and ambient; directions, sizes, distances kept");
+    G = L;
+    CHECK(pl_key_fuser_level(k, 4, &G, 0.5, &G) == 4 && !memcmp(&G, &F, sizeof G), "out may be L");
+
+    /* refusals leave out and the fuser alone */
+    G = F;
+    CHECK(pl_key_fuser_level(k, 4, &L, 0, &G) == PL_E_ARG && strstr(pl_last_error(), "exposure") &&
+              !memcmp(&G, &F, sizeof G),
+          "exposure 0 refused, out untouched");
+    CHECK(pl_key_fuser_level(k, 4, &L, NAN, &G) == PL_E_ARG &&
+              pl_key_fuser_level(k, INFINITY, &L, 1, &G) == PL_E_ARG &&
+              pl_key_fuser_level(NULL, 4, &L, 1, &G) == PL_E_ARG &&
+              pl_key_fuser_level(k, 4, NULL, 1, &G) == PL_E_ARG &&
+              pl_key_fuser_level(k, 4, &L, 1, NULL) == PL_E_ARG && !memcmp(&G, &F, sizeof G),
+          "NaN exposure, infinite time, NULLs refused");
+    pl_lighting bad = L;
+    bad.ambient[1] = -1;
+    CHECK(pl_key_fuser_level(k, 4, &bad, 1, &G) == PL_E_ARG && !memcmp(&G, &F, sizeof G),
+          "an invalid lighting refused");
+    const double bad_x[4] = {0, -1, NAN, INFINITY};
+    for (int i = 0; i < 4; i++)
+        CHECK(pl_key_fuser_add_exposed(k, &L, R, 5, bad_x[i]) == PL_E_ARG &&
+                  pl_key_fuser_level(k, 5, &L, 0.5, &G) == 4 && !memcmp(&G, &F, sizeof G),
+              "add with exposure %g refused, the fuser unchanged", bad_x[i]);
+
+    /* a frame without exposure replaces its heading's level; a black one records none */
+    heading_R(3 * M_PI / 2, R);
+    CHECK(pl_key_fuser_add(k, &L, R, 6) == 0 && pl_key_fuser_level(k, 6, &L, 1, &G) == 3,
+          "plain add drops heading 3's level");
+    pl_lighting black = L;
+    for (int i = 0; i < black.n_lights; i++)
+        black.lights[i].rgb[0] = black.lights[i].rgb[1] = black.lights[i].rgb[2] = 0;
+    black.ambient[0] = black.ambient[1] = black.ambient[2] = 0;
+    heading_R(M_PI, R);
+    CHECK(pl_key_fuser_add_exposed(k, &black, R, 7, 1) == 0 &&
+              pl_key_fuser_level(k, 7, &L, 1, &G) == 2,
+          "a black frame drops heading 2's level");
+    CHECK(pl_key_fuser_level(k, 7, &black, 1, &G) == 2 && !memcmp(&G, &black, sizeof G),
+          "a black frame stays black");
+    /* views 0 and 1 remain: (1 + 2) / 2 = level 1.5; they expire 10 s after t 0 and 1 */
+    CHECK(pl_key_fuser_level(k, 7, &L, 1, &G) == 2 &&
+              fabs(total_energy(&G) / (exp2(1.5) * e0) - 1) < 1e-5,
+          "the mean of the remaining levels");
+    CHECK(pl_key_fuser_level(k, 10.5, &L, 1, &G) == 1 &&
+              fabs(total_energy(&G) / (exp2(2) * e0) - 1) < 1e-5,
+          "view 0 expired (age 10.5 s > 10 s)");
+    pl_key_fuser_reset(k);
+    CHECK(pl_key_fuser_level(k, 10.5, &L, 1, &G) == 0 && !memcmp(&G, &L, sizeof G),
+          "reset forgets the levels");
+    pl_key_fuser_free(k);
+}
+
 int main(void)
 {
     test_one_lobe();
@@ -375,6 +478,7 @@ int main(void)
     test_bad_args();
     test_public_api();
     test_aim();
+    test_level();
     if (failures) {
         printf("%d failure(s)\n", failures);
         return 1;

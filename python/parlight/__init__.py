@@ -124,6 +124,11 @@ _SIGNATURES = {  # name: (restype, argtypes), as declared in include/parlight.h
     "pl_lighting_aim_primary": (ctypes.c_int, [ctypes.POINTER(_Lighting),
                                                ctypes.POINTER(ctypes.c_float),
                                                ctypes.POINTER(_Lighting)]),
+    "pl_key_fuser_add_exposed": (ctypes.c_int, [_P, ctypes.POINTER(_Lighting),
+                                                ctypes.POINTER(ctypes.c_double), ctypes.c_double,
+                                                ctypes.c_double]),
+    "pl_key_fuser_level": (ctypes.c_int, [_P, ctypes.c_double, ctypes.POINTER(_Lighting),
+                                          ctypes.c_double, ctypes.POINTER(_Lighting)]),
 }
 
 _libs = {}
@@ -179,7 +184,7 @@ def _error(L, status):
 
 
 def version(lib=None):
-    """pl_version(): the version of the library that is loaded ("0.7.0")."""
+    """pl_version(): the version of the library that is loaded ("0.8.0")."""
     return load_library(lib).pl_version().decode("ascii")
 
 
@@ -203,6 +208,16 @@ def _as_time(t):
         raise ValueError(f"parlight: a time must be a number of seconds, not {t!r}") from None
     if not math.isfinite(v):
         raise ValueError(f"parlight: a time must be finite, not {t!r}")
+    return v
+
+
+def _as_exposure(x):
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise ValueError(f"parlight: exposure must be a number > 0, not {x!r}") from None
+    if isinstance(x, bool) or not (v > 0 and math.isfinite(v)):
+        raise ValueError(f"parlight: exposure must be a finite number > 0, not {x!r}")
     return v
 
 
@@ -343,7 +358,7 @@ class Model(_Owned):
         return out
 
     def estimate(self, rgb, pose=None, at=None, frame=0, t_ns=None, source="", fuse=None,
-                 fuse_t=None, aim=None):
+                 fuse_t=None, aim=None, level=None, exposure=None):
         """Lighting of one frame, as the dict of `parlight estimate`'s JSON line.
 
         rgb     H x W x 3 numpy uint8 array, RGB order, at least 8 x 8 (copied when not
@@ -361,6 +376,11 @@ class Model(_Owned):
                 --poses ... --fuse prints it
         aim     None or N in 1..24 (needs fuse): once the key light rests on N headings or more,
                 the frame's primary light is turned to it, as the CLI's --aim N
+        exposure  None or the frame's exposure (> 0: what the camera multiplied the scene's
+                radiance by, in any unit the stream keeps): with fuse, the frame joins it with
+                its level (KeyFuser.add's exposure), as a --poses line's "exposure"
+        level   None or N in 1..24 (needs fuse and exposure): once the room's level rests on N
+                headings or more, the frame's intensity is brought to it, as the CLI's --level N
         """
         if fuse is not None:
             if not isinstance(fuse, KeyFuser):
@@ -375,6 +395,18 @@ class Model(_Owned):
             if isinstance(aim, bool) or not isinstance(aim, int) or not 1 <= aim <= 24:
                 raise ValueError(f"parlight: aim must be an integer in 1..24 (headings), "
                                  f"not {aim!r}")
+        if exposure is not None:
+            if fuse is None:
+                raise ValueError("parlight: exposure is kept by the key fuser: it needs "
+                                 "fuse=KeyFuser(...)")
+            exposure = _as_exposure(exposure)
+        if level is not None:
+            if exposure is None:
+                raise ValueError("parlight: level brings the lights to the room's level over "
+                                 "views: it needs fuse=KeyFuser(...) and the frame's exposure=")
+            if isinstance(level, bool) or not isinstance(level, int) or not 1 <= level <= 24:
+                raise ValueError(f"parlight: level must be an integer in 1..24 (headings), "
+                                 f"not {level!r}")
         a = _as_rgb(rgb)
         q = R = p = None
         if pose is not None:
@@ -410,13 +442,15 @@ class Model(_Owned):
                 raise _error(self._lib, st)
         key = None
         if fuse is not None:  # the frame's own lights, camera frame (the CLI's order)
-            key = fuse._add_get(L, R, fuse_t)
+            key = fuse._add_get(L, R, fuse_t, exposure)
         if R is not None:
             self._lib.pl_lighting_rotate(ctypes.byref(L), R, ctypes.byref(L))
         if aim is not None and key.views >= aim:  # world space: the key's dir as it is
             st = self._lib.pl_lighting_aim_primary(ctypes.byref(L), key.dir, ctypes.byref(L))
             if st < 0:
                 raise _error(self._lib, st)
+        if level is not None:
+            fuse._level(L, fuse_t, exposure, level)
         if p is not None:
             st = self._lib.pl_lighting_at_point(ctypes.byref(L), p, ctypes.byref(L))
             if st < 0:
@@ -461,27 +495,44 @@ class KeyFuser(_Owned):
                              self._lib.pl_last_error().decode("utf-8", "replace"))
         self._p = k
 
-    def _add_get(self, L, R, t):
+    def _add_get(self, L, R, t, exposure=None):
         key = _KeyLight()
         with self._lock:
             k = self._handle()
-            st = self._lib.pl_key_fuser_add(k, ctypes.byref(L), R, t)
+            if exposure is None:
+                st = self._lib.pl_key_fuser_add(k, ctypes.byref(L), R, t)
+            else:
+                st = self._lib.pl_key_fuser_add_exposed(k, ctypes.byref(L), R, t, exposure)
             if st >= 0:
                 st = self._lib.pl_key_fuser_get(k, t, ctypes.byref(key))
             if st < 0:
                 raise _error(self._lib, st)
         return key
 
-    def add(self, lighting, pose, t):
+    def _level(self, L, t, exposure, min_views):
+        """L brought to the room's level in place once it rests on min_views kept frames."""
+        out = _Lighting()
+        with self._lock:
+            n = self._lib.pl_key_fuser_level(self._handle(), t, ctypes.byref(L), exposure,
+                                             ctypes.byref(out))
+        if n < 0:
+            raise _error(self._lib, n)
+        if n >= min_views:
+            ctypes.pointer(L)[0] = out
+        return n
+
+    def add(self, lighting, pose, t, exposure=None):
         """Adds a frame: lighting, a camera-space line (estimate() without a pose, or a parsed
         `parlight estimate` line); pose, that frame's camera-to-world quaternion (w, x, y, z);
-        t, its time in seconds. Returns the key light after it, as key() does."""
+        t, its time in seconds; exposure, None or the frame's exposure (> 0), which records its
+        level for estimate(..., level=N). Returns the key light after it, as key() does."""
         L = _lighting_from_dict(lighting)
         R = (ctypes.c_double * 9)()
         if self._lib.pl_quat_to_rotation(_as_quat(pose), R) < 0:
             raise ValueError("parlight: pose: " +
                              self._lib.pl_last_error().decode("utf-8", "replace"))
-        return _key_dict(self._add_get(L, R, _as_time(t)))
+        x = None if exposure is None else _as_exposure(exposure)
+        return _key_dict(self._add_get(L, R, _as_time(t), x))
 
     def key(self, t):
         """The key light at time t (seconds): {"dir": [x, y, z], "views": K}, or None before any
