@@ -93,6 +93,9 @@ static void help(FILE *f)
             "                  3 or more measured to help), turn each frame's primary light to it;\n"
             "                  lights, primary, sh9 and engine follow (docs/OUTPUT.md, \"Aiming at\n"
             "                  the key light\")\n"
+            "  --level N       with --fuse and an \"exposure\" on the --poses lines: once the room's\n"
+            "                  level rests on N headings or more (1..24; 8 measured), bring each\n"
+            "                  frame's intensity to it (docs/OUTPUT.md, \"Intensity over views\")\n"
             "  --loop          --input only: start again at the end (frame numbers go on), until\n"
             "                  --n-frames or a signal\n"
             "  --wait-clients N before the first frame, wait until N readers are connected to the\n"
@@ -288,6 +291,7 @@ int cmd_estimate(int argc, char **argv)
                                          {"thumb", required_argument, 0, 1010},
                                          {"fuse", required_argument, 0, 1011},
                                          {"aim", required_argument, 0, 1012},
+                                         {"level", required_argument, 0, 1013},
                                          {"max-pixels", required_argument, 0, CLI_OPT_MAX_PIXELS},
                                          {"mqtt-qos", required_argument, 0, 1001},
                                          {"mqtt-id", required_argument, 0, 1002},
@@ -310,6 +314,7 @@ int cmd_estimate(int argc, char **argv)
     int have_orient = 0, n_pose_flags = 0;
     double fuse_age = -1; /* --fuse MAX_AGE; < 0: not given */
     int aim_views = 0;    /* --aim N; 0: not given */
+    int level_views = 0;  /* --level N; 0: not given */
     double fixed_q[4], fixed_R[9];
     const char *poses_path = NULL;
     cli_poses poses = {0};
@@ -408,6 +413,10 @@ int cmd_estimate(int argc, char **argv)
         case 1012:
             if (cli_int("estimate", "--aim", optarg, 1, PL_FUSE_BINS, &aim_views) < 0) return 2;
             break;
+        case 1013:
+            if (cli_int("estimate", "--level", optarg, 1, PL_FUSE_BINS, &level_views) < 0)
+                return 2;
+            break;
         case 'W':
             if (cli_int("estimate", "--wait-clients", optarg, 1, PL_SINK_CLIENTS_LIMIT,
                         &wait_clients) < 0)
@@ -488,6 +497,11 @@ int cmd_estimate(int argc, char **argv)
     if (aim_views && fuse_age < 0) {
         fprintf(stderr, "parlight estimate: --aim turns the lights to the fused key light: it "
                         "needs --fuse MAX_AGE (and --poses)\n");
+        return 2;
+    }
+    if (level_views && fuse_age < 0) {
+        fprintf(stderr, "parlight estimate: --level brings the lights to the room's level over "
+                        "views: it needs --fuse MAX_AGE (and --poses with \"exposure\")\n");
         return 2;
     }
     if (have_orient && pl_quat_to_rotation(fixed_q, fixed_R) < 0) {
@@ -692,10 +706,10 @@ int cmd_estimate(int argc, char **argv)
         prev_t_ns = fr.t_ns;
         /* world space (--orientation, --gravity, --poses): turned before the filter, so that
          * turning the camera does not smear the lights; --at is then in world axes */
-        double q[4], R[9];
+        double q[4], R[9], exposure = 0;
         const double *orient = have_orient ? fixed_q : NULL;
         if (poses.n) {
-            if (cli_poses_lookup(&poses, frame_base + fr.index, fr.t_ns, q) < 0 ||
+            if (cli_poses_lookup(&poses, frame_base + fr.index, fr.t_ns, q, &exposure) < 0 ||
                 pl_quat_to_rotation(q, R) < 0) {
                 fprintf(stderr, "parlight estimate: %s\n", pl_last_error());
                 goto out;
@@ -711,13 +725,26 @@ int cmd_estimate(int argc, char **argv)
         pl_key_light key;
         if (est == 0 && fuser) { /* the frame's own lights, before smoothing */
             fuse_t += dt_s;
-            if (pl_key_fuser_add(fuser, &L_cam, R, fuse_t) < 0 ||
+            if (level_views && !(exposure > 0)) {
+                fprintf(stderr,
+                        "parlight estimate: %s: --level needs the frame's \"exposure\": %s has "
+                        "none for frame %lld\n",
+                        fr.name, poses.path, (long long)(frame_base + fr.index));
+                goto out;
+            }
+            pl_lighting at_level;
+            int lv = 0;
+            if ((level_views ? pl_key_fuser_add_exposed(fuser, &L_cam, R, fuse_t, exposure)
+                             : pl_key_fuser_add(fuser, &L_cam, R, fuse_t)) < 0 ||
                 pl_key_fuser_get(fuser, fuse_t, &key) < 0 ||
                 (aim_views && key.views >= aim_views &&
-                 pl_lighting_aim_primary(&L, key.dir, &L) < 0)) {
+                 pl_lighting_aim_primary(&L, key.dir, &L) < 0) ||
+                (level_views &&
+                 (lv = pl_key_fuser_level(fuser, fuse_t, &L, exposure, &at_level)) < 0)) {
                 fprintf(stderr, "parlight estimate: %s: %s\n", fr.name, pl_last_error());
                 goto out;
             }
+            if (level_views && lv >= level_views) L = at_level;
         }
         if (est < 0 || pl_smoother_update(&smoother, &L, dt_s, &L) < 0 ||
             (have_at && pl_lighting_at_point(&L, at, &L) < 0)) {

@@ -29,9 +29,9 @@ static int exact_integer(const char *text, size_t len, const pl_json_value *v, i
     return 1;
 }
 
-/* One line's key and quaternion. */
-static int parse_line(const cli_poses *p, const char *text, size_t len, long line_no,
-                      int *by_time, int64_t *key, double q[4])
+/* One line's key, quaternion and exposure (0 when it has none). */
+static int parse_line(const cli_poses *p, const char *text, size_t len, long line_no, int *by_time,
+                      int64_t *key, double q[4], double *exposure)
 {
     char name[600];
     snprintf(name, sizeof name, "%s:%ld", p->path, line_no);
@@ -40,6 +40,7 @@ static int parse_line(const cli_poses *p, const char *text, size_t len, long lin
     int rc = 0;
     const pl_json_value *fr = pl_json_get(&doc.root, "frame"), *t = pl_json_get(&doc.root, "t_ns");
     const pl_json_value *jq = pl_json_get(&doc.root, "q"), *k = fr ? fr : t;
+    const pl_json_value *ex = pl_json_get(&doc.root, "exposure");
     if (doc.root.type != PL_JSON_OBJECT)
         rc = pl_error(PL_E_FORMAT, "%s: expected an object {\"frame\"|\"t_ns\": N, \"q\": [w, x, "
                                    "y, z]}", name);
@@ -56,6 +57,13 @@ static int parse_line(const cli_poses *p, const char *text, size_t len, long lin
                           pl_json_type_name(jq->items[i].type));
         else
             q[i] = jq->items[i].number;
+    }
+    *exposure = 0;
+    if (rc == 0 && ex) {
+        if (ex->type != PL_JSON_NUMBER || !(ex->number > 0) || !isfinite(ex->number))
+            rc = pl_error(PL_E_FORMAT, "%s: \"exposure\" must be a number > 0", name);
+        else
+            *exposure = ex->number;
     }
     double R[9];
     if (rc == 0 && pl_quat_to_rotation(q, R) < 0) {
@@ -86,7 +94,7 @@ int cli_poses_load(const char *path, cli_poses *p)
         if (len == 0) continue;
         cli_pose e;
         int by_time;
-        rc = parse_line(p, line, (size_t)len, line_no, &by_time, &e.key, e.q);
+        rc = parse_line(p, line, (size_t)len, line_no, &by_time, &e.key, e.q, &e.exposure);
         if (rc < 0) break;
         if (p->n == 0) {
             p->by_time = by_time;
@@ -118,8 +126,11 @@ int cli_poses_load(const char *path, cli_poses *p)
     return rc;
 }
 
-int cli_poses_lookup(const cli_poses *p, int64_t frame, int64_t t_ns, double q[4])
+int cli_poses_lookup(const cli_poses *p, int64_t frame, int64_t t_ns, double q[4], double *exposure)
 {
+    double unused;
+    if (!exposure) exposure = &unused;
+    *exposure = 0;
     int64_t key = p->by_time ? t_ns : frame;
     size_t lo = 0, hi = p->n; /* first pose with key >= the frame's */
     while (lo < hi) {
@@ -131,6 +142,7 @@ int cli_poses_lookup(const cli_poses *p, int64_t frame, int64_t t_ns, double q[4
     }
     if (lo < p->n && p->pose[lo].key == key) {
         memcpy(q, p->pose[lo].q, 4 * sizeof *q);
+        *exposure = p->pose[lo].exposure;
         return 0;
     }
     if (!p->by_time)
@@ -150,7 +162,10 @@ int cli_poses_lookup(const cli_poses *p, int64_t frame, int64_t t_ns, double q[4
         qa[k] = a->q[k] / sqrt(na);
         qb[k] = b->q[k] / sqrt(nb);
     }
-    pl_quat_slerp(qa, qb, (double)(key - a->key) / (double)(b->key - a->key), q);
+    const double u = (double)(key - a->key) / (double)(b->key - a->key);
+    pl_quat_slerp(qa, qb, u, q);
+    if (a->exposure > 0 && b->exposure > 0)
+        *exposure = exp2((1 - u) * log2(a->exposure) + u * log2(b->exposure));
     return 0;
 }
 

@@ -15,6 +15,7 @@
 typedef struct cli_pose {
     int64_t key; /* frame number or t_ns */
     double q[4];
+    double exposure; /* > 0; 0: the line has none */
 } cli_pose;
 
 typedef struct cli_poses {
@@ -27,9 +28,11 @@ typedef struct cli_poses {
 /* Reads and checks the whole file; messages "PATH:LINE: problem". PL_E_FORMAT / PL_E_IO. */
 int cli_poses_load(const char *path, cli_poses *p);
 
-/* The orientation of a frame (its output number and timestamp) into q. PL_E_ARG, naming the
- * frame and the file, when the file has none for it. */
-int cli_poses_lookup(const cli_poses *p, int64_t frame, int64_t t_ns, double q[4]);
+/* The orientation of a frame (its output number and timestamp) into q, and its exposure into
+ * *exposure when not NULL (0 when the file has none for it). PL_E_ARG, naming the frame and the
+ * file, when the file has no orientation for it. */
+int cli_poses_lookup(const cli_poses *p, int64_t frame, int64_t t_ns, double q[4],
+                     double *exposure);
 
 void cli_poses_free(cli_poses *p);
 

@@ -5,9 +5,12 @@
 # heading each frame; the last one is the key light recomputed by tests/fuse_ref.py from the
 # lines' own world-space lights, and its angle to the panorama's light is the one `parlight eval`
 # reports for the same room (eval's crops are crop --batch's: test_eval_cli.sh). --aim 3 turns the
-# primary light of the lines with 3 headings or more to the key light and leaves the rest. With --fuse 1.5
+# primary light of the lines with 3 headings or more to the key light and leaves the rest. --level 8
+# with each crop's exposure on its poses line brings the line with 8 headings to the room's level
+# (the rule fuse_sweeps.py scores) and leaves the rest. With --fuse 1.5
 # (frames 1 s apart by their files' times) at most two views count. Bad input: --fuse without --poses, with
-# --orientation, a negative or non-numeric age; --aim without --fuse, out of 1..24. Also tools/train/fuse_sweeps.py on eval's file.
+# --orientation, a negative or non-numeric age; --aim without --fuse, out of 1..24; --level likewise, and without an exposure for a frame, or a bad
+# one. Also tools/train/fuse_sweeps.py on eval's file.
 # Model: build/models/seeded-n3.plm (seeded weights: the plumbing is what is tested).
 set -u
 cd "$(dirname "$0")/.."
@@ -147,6 +150,51 @@ assert n_moved >= 3, f"the primary light moved in only {n_moved} of the aimed fr
 print("aimed from frame", next(i for i, a in enumerate(aimed) if a["key_light"]["views"] >= 3), "moved in", n_moved)
 PY
     fail "--aim 3: $(head -c 300 "$T/out")"
+# --level 8: the poses lines carry each crop's exposure (eval's exposure_scale of the same crop:
+# what crop multiplied the panorama by; the first four said to be 4x brighter, as if the camera
+# had exposed them longer). The line with 8 headings is brought to the room's level, 2^(mean over
+# the views of log2(energy / exposure)) x its own exposure, by one factor (the intensity over
+# views that tools/train/fuse_sweeps.py scores); the lines before it are --fuse's own.
+$PY - "$T/eval.json" >"$T/poses-x.jsonl" <<'PY'
+import json, math, sys
+cs = sorted(json.load(open(sys.argv[1]))["panoramas"][0]["crops"], key=lambda c: c["yaw_deg"])
+for i, c in enumerate(cs):
+    a = math.radians(45 * i)
+    print(json.dumps({"frame": i, "q": [math.cos(a / 2), 0, -math.sin(a / 2), 0],
+                      "exposure": c["exposure_scale"] * (4 if i < 4 else 1)}))
+PY
+lvl=("$P" estimate --model "$M" --input "$T/crops" --poses "$T/poses-x.jsonl")
+expect 0 "" -- "${lvl[@]}" --fuse 0 --level 8
+$PY - "$T/out" "$T/fused.jsonl" "$T/eval.json" "$T/poses-x.jsonl" <<'PY' && ok "--level 8: the 8th line at the room's level, one factor, the rest as --fuse" ||
+import json, math, sys
+sys.path.insert(0, "tests")
+from fuse_ref import lum, sg_integral
+lev = [json.loads(l) for l in open(sys.argv[1])]
+plain = [json.loads(l) for l in open(sys.argv[2])]
+cs = sorted(json.load(open(sys.argv[3]))["panoramas"][0]["crops"], key=lambda c: c["yaw_deg"])
+assert len(lev) == len(plain) == len(cs) == 8
+def energy(L):
+    return (sum(lum(l["rgb"]) * sg_integral(l["solid_angle_sr"]) for l in L["lights"]) +
+            4 * math.pi * lum(L["ambient"]))
+for i in range(7):
+    for f in ("lights", "ambient", "primary", "sh9", "engine", "key_light"):
+        assert lev[i][f] == plain[i][f], (i, f)
+k = [json.loads(l)["exposure"] for l in open(sys.argv[4])]
+# the eval file's estimates are the same crops' (its crops are crop --batch's)
+r = [math.log2(energy(c["estimate"]) / k[i]) for i, c in enumerate(cs)]
+assert all(abs(energy(p) / energy(c["estimate"]) - 1) < 1e-5 for p, c in zip(plain, cs))
+mean = sum(r) / 8
+c = 2 ** (mean - r[7])  # fuse_sweeps.py's factor for frame 7 over the full turn
+a, p = lev[7], plain[7]
+assert abs(energy(a) / (2 ** mean * k[7]) - 1) < 1e-4, (energy(a), 2 ** mean * k[7])
+for la, lp in zip(a["lights"], p["lights"]):
+    assert la["dir"] == lp["dir"] and la["solid_angle_sr"] == lp["solid_angle_sr"], (la, lp)
+    assert all(abs(x - c * y) <= 1e-5 * c * y + 1e-30 for x, y in zip(la["rgb"], lp["rgb"])), (la, lp, c)
+assert all(abs(x - c * y) <= 1e-5 * c * y + 1e-30 for x, y in zip(a["ambient"], p["ambient"]))
+assert abs(c - 1) > 0.01, f"factor {c}: the test says nothing"
+print(f"factor {c:.4f} on frame 7")
+PY
+    fail "--level 8: $(head -c 300 "$T/out")"
 # without --fuse, no key_light
 expect 0 "" -- "${est[@]}"
 grep -q key_light "$T/out" && fail "key_light without --fuse"
@@ -163,4 +211,20 @@ expect 2 "--aim turns the lights to the fused key light: it needs --fuse MAX_AGE
 expect 2 "--aim" -- "${est[@]}" --fuse 0 --aim 0
 expect 2 "--aim" -- "${est[@]}" --fuse 0 --aim 25
 expect 2 "--aim" -- "${est[@]}" --fuse 0 --aim three
+expect 2 "--level brings the lights to the room's level over views: it needs --fuse" -- \
+    "${lvl[@]}" --level 8
+expect 2 "--level" -- "${lvl[@]}" --fuse 0 --level 0
+expect 2 "--level" -- "${lvl[@]}" --fuse 0 --level 25
+expect 2 "--level" -- "${lvl[@]}" --fuse 0 --level all
+expect 1 "--level needs the frame's \"exposure\": .*poses.jsonl has none for frame 0" -- \
+    "${est[@]}" --fuse 0 --level 3
+head -n 3 "$T/poses-x.jsonl" >"$T/poses-x3.jsonl"
+sed -n 4p "$T/poses.jsonl" >>"$T/poses-x3.jsonl"
+expect 1 "has none for frame 3" -- "${lvl[@]/poses-x.jsonl/poses-x3.jsonl}" --fuse 0 --level 2
+for bad in -1 0 '"bright"' null 1e999; do
+    sed "2s/\"exposure\": [^}]*/\"exposure\": $bad/" "$T/poses-x.jsonl" >"$T/poses-bad.jsonl"
+    want='poses-bad.jsonl:2: "exposure" must be a number > 0'
+    [ "$bad" = 1e999 ] && want='poses-bad.jsonl:2: .*within double range'
+    expect 2 "$want" -- "${lvl[@]/poses-x.jsonl/poses-bad.jsonl}" --fuse 0 --level 8
+done
 finish

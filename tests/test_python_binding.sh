@@ -63,6 +63,14 @@ expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --
 cp "$T/out" "$T/cli-fuse.jsonl"
 expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --input "$T/png" --poses "$T/poses.jsonl" --fuse 0 --aim 3
 cp "$T/out" "$T/cli-aim.jsonl"
+# and the room's level: each line with an exposure (0.01 x 1.5^i: any unit the file keeps)
+"$PY" -c 'import json, math
+for i in range(32):
+    a = math.radians(90 * i)
+    print(json.dumps({"frame": i, "q": [math.cos(a / 2), 0, -math.sin(a / 2), 0],
+                      "exposure": 0.01 * 1.5 ** i}))' >"$T/poses-x.jsonl"
+expect 0 "" -- "$BUILD/parlight" estimate --model models/parlight-n3-int8.plm --input "$T/png" --poses "$T/poses-x.jsonl" --fuse 0 --aim 3 --level 3
+cp "$T/out" "$T/cli-level.jsonl"
 
 timeout 600 env PYTHONPATH=python PARLIGHT_LIB="$LIB" "$PY" - "$T" "$POSE" "$LIB" <<'PY' >"$T/py.log" 2>&1
 import glob, json, math, os, sys
@@ -187,6 +195,30 @@ with Model(int8) as m, parlight.KeyFuser(0) as k, parlight.KeyFuser(0) as k2:
             moved = py["primary"]["dir"] == py["key_light"]["dir"] != cli[i]["primary"]["dir"]
             (ok if same(py, c) and (i < 2 or moved) else fail)(
                 f"aim=3: frame {i}: the CLI's --aim 3 line (primary {'turned' if moved else 'as it was'})")
+    with open(os.path.join(T, "cli-level.jsonl")) as f:
+        cli_level = [json.loads(l) for l in f]
+    with open(os.path.join(T, "poses-x.jsonl")) as f:
+        expo = [json.loads(l)["exposure"] for l in f]
+    with parlight.KeyFuser(0) as k4:
+        for i, (rgb_i, c) in enumerate(zip(frames, cli_level)):
+            py = m.estimate(rgb_i, pose=poses[i], fuse=k4, frame=i, aim=3, level=3,
+                            exposure=expo[i])
+            scaled = py["ambient"] != cli_aim[i]["ambient"]
+            (ok if same(py, c) and (i < 2 or scaled) else fail)(
+                f"level=3: frame {i}: the CLI's --level 3 line ({'brought to the level' if scaled else 'as it was'})")
+    raises("level without exposure", ValueError, "exposure=",
+           lambda: m.estimate(rgb, pose=POSE, fuse=k, level=3))
+    raises("exposure without fuse", ValueError, "needs fuse",
+           lambda: m.estimate(rgb, pose=POSE, exposure=1))
+    for bad in (0, -1, math.nan, math.inf, True, "bright"):
+        raises(f"exposure {bad!r}", ValueError, "exposure must be",
+               lambda: m.estimate(rgb, pose=POSE, fuse=k, exposure=bad))
+    raises("level 25", ValueError, "1..24",
+           lambda: m.estimate(rgb, pose=POSE, fuse=k, exposure=1, level=25))
+    raises("level True", ValueError, "1..24",
+           lambda: m.estimate(rgb, pose=POSE, fuse=k, exposure=1, level=True))
+    raises("add with exposure 0", ValueError, "exposure must be",
+           lambda: k2.add(cam[0], POSE, 0, exposure=0))
     raises("aim without fuse", ValueError, "needs fuse", lambda: m.estimate(rgb, pose=POSE, aim=3))
     raises("aim 0", ValueError, "1..24", lambda: m.estimate(rgb, pose=POSE, fuse=k, aim=0))
     raises("aim True", ValueError, "1..24", lambda: m.estimate(rgb, pose=POSE, fuse=k, aim=True))
