@@ -66,6 +66,16 @@ static void usage(FILE *f)
             "  -h, --help      this text\n");
 }
 
+/* The model's lights after what an AR app that has seen the whole room does with them: aimed at
+ * the room's key light (`estimate --aim`), brought to the room's level (`estimate --level`, the
+ * crop's exposure scale k as the frame's exposure), both. */
+enum { V_AIMED, V_LEVELED, V_AIMED_LEVELED, N_VARIANTS };
+static const char *const VARIANT_KEY[N_VARIANTS] = {"key_aimed", "key_leveled",
+                                                    "key_aimed_leveled"};
+static const char *const VARIANT_STAT[N_VARIANTS] = {"aimed", "leveled", "aimed_leveled"};
+static const char *const VARIANT_LABEL[N_VARIANTS] = {
+    "aimed at the key light", "at the room's level", "aimed + the room's level"};
+
 /* One crop's work: its image and scale, the estimate, the scores and the status. */
 typedef struct crop_job {
     pl_crop_params p;
@@ -75,9 +85,9 @@ typedef struct crop_job {
     pl_lighting brightest; /* baseline (b)'s lighting, for the JSON */
     double frame_ev; /* log2(frame's mean luminance / the estimate's), pl_anchor_ratio_ev */
     pl_eval_scores s[PL_EVAL_N_METHODS];
-    pl_lighting aimed;      /* pred with its primary turned to the room's key light */
-    int have_aimed;         /* 0: the room has no key light (aimed_s all NaN) */
-    pl_eval_scores aimed_s; /* aimed's scores */
+    pl_lighting var[N_VARIANTS];      /* pred after the room's views (V_*) */
+    int have_var[N_VARIANTS];         /* 0: no key light / level (var_s all NaN) */
+    pl_eval_scores var_s[N_VARIANTS]; /* var's scores */
     int rc;
     char err[512];
 } crop_job;
@@ -122,9 +132,10 @@ static void score_crops(void *vctx, int begin, int end)
         rc = pl_eval_crop(c->pano, c->lights, &j->p, &j->ldr, j->k, &j->pred,
                           c->ridge ? &j->ridge : NULL, c->size, j->s, &j->gt, &j->brightest,
                           &truth);
-        if (rc == 0 && j->have_aimed &&
-            (rc = pl_eval_score(&j->aimed, &truth, &j->gt, &j->aimed_s)) < 0)
-            pl_error_prefix(rc, "eval: aimed at the key light");
+        for (int v = 0; v < N_VARIANTS && rc == 0; v++)
+            if (j->have_var[v] &&
+                (rc = pl_eval_score(&j->var[v], &truth, &j->gt, &j->var_s[v])) < 0)
+                pl_error_prefix(rc, "eval: %s", VARIANT_LABEL[v]);
         pl_image_f32_free(&truth);
         if (rc < 0) record_error(j, rc);
     }
@@ -141,7 +152,7 @@ typedef struct pano_row {
     pl_lighting *brightest; /* [crops]: baseline (b)'s lightings */
     pl_lighting *ridge;     /* [crops]: (d)'s estimates (zeros when not scored) */
     pl_eval_scores *s;      /* [crops][PL_EVAL_N_METHODS] */
-    pl_eval_scores *aimed;  /* [crops]: the model aimed at the room's key light (room_key) */
+    pl_eval_scores *var[N_VARIANTS]; /* [crops]: the model after the room's views (V_*) */
     double key_angle[2];    /* key light over the crops' views (model, ridge): angle to the
                                truth's primary in degrees, NAN when undefined (key_angle) */
 } pano_row;
@@ -186,22 +197,39 @@ static double key_angle(const float *key, const pl_lighting *truth)
     return pl_eval_angle_deg(key, dir);
 }
 
-/* Each crop's estimate with its primary light turned to the room's key light (NULL: none), the
- * key over all its crops: what `parlight estimate --aim` gives once it has seen them
- * (docs/OUTPUT.md). */
-static void aim_crops(crop_job *jobs, int crops, const float *key)
+/* Each crop's estimate after the room's views (docs/OUTPUT.md): its primary light turned to the
+ * room's key light (NULL: none), the key over all its crops, as `parlight estimate --aim` gives
+ * once it has seen them; its intensity brought to the room's level over the same crops, each
+ * with its exposure scale k as the camera's exposure, as `estimate --level` gives (the public
+ * pl_key_fuser_level on a fuser of the crops); and both. */
+static void after_views(crop_job *jobs, int crops, const float *key)
 {
+    pl_key_fuser *fu = NULL;
+    int ok = pl_key_fuser_new(0, &fu) == 0;
+    for (int i = 0; i < crops && ok; i++) {
+        double R[9];
+        pl_crop_rotation(&jobs[i].p, R);
+        ok = pl_key_fuser_add_exposed(fu, &jobs[i].pred, R, 0, jobs[i].k) == 0;
+    }
     for (int i = 0; i < crops; i++) {
         crop_job *j = &jobs[i];
+        pl_lighting *var = j->var;
         double R[9];
         float kc[3];
         pl_crop_rotation(&j->p, R);
         if (key) pl_rotate3_inverse(R, key, kc);
-        j->have_aimed = key && pl_lighting_aim_primary(&j->pred, kc, &j->aimed) >= 0;
-        if (!j->have_aimed)
-            j->aimed_s.rmse = j->aimed_s.si_rmse = j->aimed_s.scale_ev = j->aimed_s.render_rms =
-                j->aimed_s.angle_deg = NAN;
+        j->have_var[V_AIMED] = key && pl_lighting_aim_primary(&j->pred, kc, &var[V_AIMED]) >= 0;
+        j->have_var[V_LEVELED] =
+            ok && pl_key_fuser_level(fu, 0, &j->pred, j->k, &var[V_LEVELED]) > 0;
+        j->have_var[V_AIMED_LEVELED] =
+            j->have_var[V_AIMED] && j->have_var[V_LEVELED] &&
+            pl_key_fuser_level(fu, 0, &var[V_AIMED], j->k, &var[V_AIMED_LEVELED]) > 0;
+        for (int v = 0; v < N_VARIANTS; v++)
+            if (!j->have_var[v])
+                j->var_s[v].rmse = j->var_s[v].si_rmse = j->var_s[v].scale_ev =
+                    j->var_s[v].render_rms = j->var_s[v].angle_deg = NAN;
     }
+    pl_key_fuser_free(fu);
 }
 
 static void free_row(pano_row *r)
@@ -215,7 +243,8 @@ static void free_row(pano_row *r)
     free(r->gt);
     free(r->ridge);
     free(r->brightest);
-    free(r->aimed);
+    for (int v = 0; v < N_VARIANTS; v++)
+        free(r->var[v]);
     memset(r, 0, sizeof *r);
 }
 
@@ -265,7 +294,7 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     const int64_t t2 = pl_now_ns();
     float key[3];
     const int have_key = room_key(jobs, crops, 0, key) == 0;
-    aim_crops(jobs, crops, have_key ? key : NULL);
+    after_views(jobs, crops, have_key ? key : NULL);
     pl_pool_for(pool, crops, score_crops, &ctx);
     ms[0] += (double)(t1 - t0) / 1e6;
     ms[1] += (double)(t2 - t1) / 1e6;
@@ -290,9 +319,11 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
     r->gt = malloc((size_t)crops * sizeof *r->gt);
     r->ridge = malloc((size_t)crops * sizeof *r->ridge);
     r->brightest = malloc((size_t)crops * sizeof *r->brightest);
-    r->aimed = malloc((size_t)crops * sizeof *r->aimed);
+    int have_all = 1;
+    for (int v = 0; v < N_VARIANTS; v++)
+        have_all &= (r->var[v] = malloc((size_t)crops * sizeof *r->var[v])) != NULL;
     if (!r->yaw || !r->k || !r->frame_ev || !r->in_view || !r->s || !r->pred || !r->gt ||
-        !r->ridge || !r->brightest || !r->aimed) {
+        !r->ridge || !r->brightest || !have_all) {
         free_row(r);
         return pl_error(PL_E_NOMEM, "out of memory");
     }
@@ -305,7 +336,8 @@ static int eval_panorama(const char *path, const pl_extract_params *ep, pl_model
         r->gt[i] = jobs[i].gt;
         r->ridge[i] = jobs[i].ridge;
         r->brightest[i] = jobs[i].brightest;
-        r->aimed[i] = jobs[i].aimed_s;
+        for (int v = 0; v < N_VARIANTS; v++)
+            r->var[v][i] = jobs[i].var_s[v];
         memcpy(&r->s[(size_t)i * PL_EVAL_N_METHODS], jobs[i].s, sizeof jobs[i].s);
     }
     float ridge_key[3];
@@ -446,8 +478,9 @@ static void put_scores_json(FILE *f, const pl_eval_scores *x)
     fputc('}', f);
 }
 
-/* A panorama's "key_aimed" statistics (no braces): rmse and si-RMSE over its crops. */
-static int put_aimed_json(FILE *f, const pl_eval_scores *aimed, int crops, double *buf)
+/* A panorama's "key_aimed" (or another variant's) statistics (no braces): rmse and si-RMSE over
+ * its crops. */
+static int put_variant_json(FILE *f, const pl_eval_scores *aimed, int crops, double *buf)
 {
     for (int q = 0; q < 2; q++) {
         pl_eval_stats st;
@@ -461,9 +494,9 @@ static int put_aimed_json(FILE *f, const pl_eval_scores *aimed, int crops, doubl
     return 0;
 }
 
-/* One crop's JSON object: yaw, exposure scale, the scores of every method and of the model
- * aimed at the room's key light ("key_aimed"), the model's estimate, the ground truth and (d)'s
- * estimate when scored (lights JSON members, light/lights_json.h). */
+/* One crop's JSON object: yaw, exposure scale, the scores of every method and of the model after
+ * the room's views ("key_aimed", "key_leveled", "key_aimed_leveled"), the model's estimate, the
+ * ground truth and (d)'s estimate when scored (lights JSON members, light/lights_json.h). */
 static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
 {
     fprintf(f, "{\"yaw_deg\":%.9g,\"exposure_scale\":%.9g,\"frame_ev\":", pr->yaw[i], pr->k[i]);
@@ -477,8 +510,10 @@ static int put_crop_json(FILE *f, const pano_row *pr, int i, int have_ridge)
         fprintf(f, ",\"%s\":", pl_eval_method_key(m));
         put_scores_json(f, &pr->s[(size_t)i * PL_EVAL_N_METHODS + (size_t)m]);
     }
-    fputs(",\"key_aimed\":", f);
-    put_scores_json(f, &pr->aimed[i]);
+    for (int v = 0; v < N_VARIANTS; v++) {
+        fprintf(f, ",\"%s\":", VARIANT_KEY[v]);
+        put_scores_json(f, &pr->var[v][i]);
+    }
     char lj[PL_MAX_LIGHTS * 256 + 128];
     const pl_lighting *L[4] = {&pr->pred[i], &pr->gt[i], &pr->brightest[i], &pr->ridge[i]};
     const char *key[4] = {"estimate", "ground_truth", "brightest_estimate", "ridge_estimate"};
@@ -569,32 +604,35 @@ static int key_stats(const pano_row *rows, int n_rows, int crops, int ridge, dou
     return rc < 0 ? rc : pl_eval_quartiles(single, n_rows, &st[1]);
 }
 
-/* The model's lights aimed at each room's key light: rmse (st[0]) and si-RMSE (st[1]) over every
- * crop, the same for its own lights (st[2], st[3]), and in how many rooms the aim lowers the
- * median si-RMSE. */
-static int aimed_stats(const pano_row *rows, int n_rows, int crops, double *buf,
-                       pl_eval_stats st[4], int *rooms_lower)
+/* The model's lights after the room's views (variant v, V_*): rmse (st[0]) and si-RMSE (st[1])
+ * over every crop, the same for its own lights (st[2], st[3]), and in how many rooms the variant
+ * lowers the median rmse (rooms_lower[0]) and the median si-RMSE (rooms_lower[1]). */
+static int variant_stats(const pano_row *rows, int n_rows, int crops, int v, double *buf,
+                         pl_eval_stats st[4], int rooms_lower[2])
 {
     for (int q = 0; q < 4; q++) {
         for (int r = 0; r < n_rows; r++)
             for (int i = 0; i < crops; i++) {
                 const pl_eval_scores *x =
-                    q < 2 ? &rows[r].aimed[i] : &rows[r].s[(size_t)i * PL_EVAL_N_METHODS];
+                    q < 2 ? &rows[r].var[v][i] : &rows[r].s[(size_t)i * PL_EVAL_N_METHODS];
                 buf[r * crops + i] = q % 2 ? x->si_rmse : x->rmse;
             }
         int rc = pl_eval_quartiles(buf, n_rows * crops, &st[q]);
         if (rc < 0) return rc;
     }
-    *rooms_lower = 0;
-    for (int r = 0; r < n_rows; r++) {
-        pl_eval_stats own, aimed;
-        for (int i = 0; i < crops; i++)
-            buf[i] = rows[r].aimed[i].si_rmse;
-        int rc = pl_eval_quartiles(buf, crops, &aimed);
-        if (rc == 0) rc = stats_of(rows[r].s, crops, PL_EVAL_MODEL, 1, NULL, 0, buf, &own);
-        if (rc < 0) return rc;
-        *rooms_lower += aimed.median < own.median;
-    }
+    rooms_lower[0] = rooms_lower[1] = 0;
+    for (int r = 0; r < n_rows; r++)
+        for (int q = 0; q < 2; q++) {
+            pl_eval_stats own, after;
+            for (int i = 0; i < crops; i++)
+                buf[i] = q ? rows[r].var[v][i].si_rmse : rows[r].var[v][i].rmse;
+            int rc = pl_eval_quartiles(buf, crops, &after);
+            if (rc == 0) rc = stats_of(rows[r].s, crops, PL_EVAL_MODEL, q, NULL, 0, buf, &own);
+            if (rc < 0) return rc;
+            /* lower by more than rounding: a variant that keeps the shape (the level) renders
+             * the same si-RMSE to within float noise */
+            rooms_lower[q] += after.median < own.median * (1 - 1e-6);
+        }
     return 0;
 }
 
@@ -620,15 +658,18 @@ static int put_key_lights(FILE *f, int json, const pano_row *rows, int n_rows, i
             put_stats_json(f, "fused_angle_deg", &st[0], 1);
             fputc(',', f);
             put_stats_json(f, "room_median_angle_deg", &st[1], 1);
-            if (!m) {
+            for (int v = 0; !m && v < N_VARIANTS; v++) {
                 pl_eval_stats a[4];
-                int lower;
-                if ((rc = aimed_stats(rows, n_rows, crops, buf, a, &lower)) < 0) return rc;
-                fputc(',', f);
-                put_stats_json(f, "aimed_rmse", &a[0], 1);
-                fputc(',', f);
-                put_stats_json(f, "aimed_si_rmse", &a[1], 1);
-                fprintf(f, ",\"rooms_aimed_si_rmse_lower\":%d", lower);
+                int lower[2];
+                char key[64];
+                if ((rc = variant_stats(rows, n_rows, crops, v, buf, a, lower)) < 0) return rc;
+                for (int q = 0; q < 2; q++) {
+                    snprintf(key, sizeof key, "%s_%s", VARIANT_STAT[v], q ? "si_rmse" : "rmse");
+                    fputc(',', f);
+                    put_stats_json(f, key, &a[q], 1);
+                }
+                fprintf(f, ",\"rooms_%s_rmse_lower\":%d,\"rooms_%s_si_rmse_lower\":%d",
+                        VARIANT_STAT[v], lower[0], VARIANT_STAT[v], lower[1]);
             }
             fputc('}', f);
         } else {
@@ -642,19 +683,24 @@ static int put_key_lights(FILE *f, int json, const pano_row *rows, int n_rows, i
         fputc('}', f);
         return 0;
     }
-    pl_eval_stats a[4];
-    int lower;
-    int rc = aimed_stats(rows, n_rows, crops, buf, a, &lower);
-    if (rc < 0) return rc;
     fprintf(f, "  %-24s  %-28s  %-28s  %s\n", "model's lights", "rmse median [q1, q3]",
-            "si-rmse median [q1, q3]", "rooms where si-rmse is lower");
-    fprintf(f, "  %-24s", "own");
-    put_cell(f, &a[2], 28);
-    put_cell(f, &a[3], 0);
-    fprintf(f, "\n  %-24s", "aimed at the key light");
-    put_cell(f, &a[0], 28);
-    put_cell(f, &a[1], 28);
-    fprintf(f, "%d of %d\n", lower, n_rows);
+            "si-rmse median [q1, q3]", "rooms where lower: rmse, si-rmse");
+    for (int v = 0; v < N_VARIANTS; v++) {
+        pl_eval_stats a[4];
+        int lower[2];
+        int rc = variant_stats(rows, n_rows, crops, v, buf, a, lower);
+        if (rc < 0) return rc;
+        if (v == 0) {
+            fprintf(f, "  %-24s", "own");
+            put_cell(f, &a[2], 28);
+            put_cell(f, &a[3], 0);
+            fputc('\n', f);
+        }
+        fprintf(f, "  %-24s", VARIANT_LABEL[v]);
+        put_cell(f, &a[0], 28);
+        put_cell(f, &a[1], 28);
+        fprintf(f, "%d, %d of %d\n", lower[0], lower[1], n_rows);
+    }
     return 0;
 }
 
@@ -894,8 +940,10 @@ int cmd_eval(int argc, char **argv)
                 printf(",\"ridge\":");
                 put_num(stdout, pr->key_angle[1]);
             }
-            printf("},\"key_aimed\":{");
-            if (rc == 0) rc = put_aimed_json(stdout, pr->aimed, crops, buf);
+            for (int v = 0; v < N_VARIANTS; v++) {
+                printf("},\"%s\":{", VARIANT_KEY[v]);
+                if (rc == 0) rc = put_variant_json(stdout, pr->var[v], crops, buf);
+            }
             printf("},\"crops\":[");
             for (int i = 0; i < crops && rc == 0; i++) {
                 if (i) putchar(',');
