@@ -71,7 +71,7 @@ extern "C" {
  * against, pl_version() for what it runs with. The major number changes when the API or the ABI
  * does (libparlight.so.MAJOR). */
 #define PARLIGHT_VERSION_MAJOR 0
-#define PARLIGHT_VERSION_MINOR 7
+#define PARLIGHT_VERSION_MINOR 8
 #define PARLIGHT_VERSION_PATCH 0
 #define PARLIGHT_VERSION "0.8.0"
 PL_API const char *pl_version(void);
