@@ -195,6 +195,31 @@ assert abs(c - 1) > 0.01, f"factor {c}: the test says nothing"
 print(f"factor {c:.4f} on frame 7")
 PY
     fail "--level 8: $(head -c 300 "$T/out")"
+# poses keyed by time: frame 1 (t 1 s) lies between lines at 0 s (exposure 1) and 2 s (exposure
+# 4), so it gets the slerp's heading (45 degrees) and the exposure's log midpoint, 2; with
+# --level 1 its energy is then 2^(mean of log2(E0 / 1), log2(E1 / 2)) x 2
+$PY -c 'import json, math
+for i, x in ((0, 1), (2, 4)):
+    a = math.radians(45 * i)
+    print(json.dumps({"t_ns": (1700000000 + i) * 10**9, "q": [math.cos(a / 2), 0, -math.sin(a / 2), 0],
+                      "exposure": x}))' >"$T/poses-t.jsonl"
+expect 0 "" -- "$P" estimate --model "$M" --input "$T/crops" --poses "$T/poses-t.jsonl" --fuse 0 \
+    --level 1 --n-frames 3
+$PY - "$T/out" "$T/fused.jsonl" <<'PY' && ok "--level by time: the exposure interpolated in log (2 between 1 and 4)" ||
+import json, math, sys
+sys.path.insert(0, "tests")
+from fuse_ref import lum, sg_integral
+lev = [json.loads(l) for l in open(sys.argv[1])]
+plain = [json.loads(l) for l in open(sys.argv[2])]
+def energy(L):
+    return (sum(lum(l["rgb"]) * sg_integral(l["solid_angle_sr"]) for l in L["lights"]) +
+            4 * math.pi * lum(L["ambient"]))
+e = [energy(p) for p in plain[:2]]
+want = 2 ** ((math.log2(e[0] / 1) + math.log2(e[1] / 2)) / 2) * 2
+assert len(lev) == 3 and lev[1]["key_light"]["views"] == 2, lev
+assert abs(energy(lev[1]) / want - 1) < 1e-4, (energy(lev[1]), want)
+PY
+    fail "--level by time: $(head -c 300 "$T/out")"
 # without --fuse, no key_light
 expect 0 "" -- "${est[@]}"
 grep -q key_light "$T/out" && fail "key_light without --fuse"
