@@ -211,6 +211,12 @@ def _as_time(t):
     return v
 
 
+def _check_headings(name, n):
+    """aim= and level=: a number of headings, 1..24 (the fuser's bins)."""
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 24:
+        raise ValueError(f"parlight: {name} must be an integer in 1..24 (headings), not {n!r}")
+
+
 def _as_exposure(x):
     try:
         v = float(x)
@@ -392,9 +398,7 @@ class Model(_Owned):
             if fuse is None:
                 raise ValueError("parlight: aim turns the lights to the fused key light: it "
                                  "needs fuse=KeyFuser(...)")
-            if isinstance(aim, bool) or not isinstance(aim, int) or not 1 <= aim <= 24:
-                raise ValueError(f"parlight: aim must be an integer in 1..24 (headings), "
-                                 f"not {aim!r}")
+            _check_headings("aim", aim)
         if exposure is not None:
             if fuse is None:
                 raise ValueError("parlight: exposure is kept by the key fuser: it needs "
@@ -404,9 +408,7 @@ class Model(_Owned):
             if exposure is None:
                 raise ValueError("parlight: level brings the lights to the room's level over "
                                  "views: it needs fuse=KeyFuser(...) and the frame's exposure=")
-            if isinstance(level, bool) or not isinstance(level, int) or not 1 <= level <= 24:
-                raise ValueError(f"parlight: level must be an integer in 1..24 (headings), "
-                                 f"not {level!r}")
+            _check_headings("level", level)
         a = _as_rgb(rgb)
         q = R = p = None
         if pose is not None:
