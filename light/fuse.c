@@ -1,6 +1,7 @@
 /* The room's key light fused over views (light/fuse.h). */
 #include "light/fuse.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -264,7 +265,15 @@ int pl_key_fuser_level(const pl_key_fuser *fuser, double t_s, const pl_lighting 
     if (out != L) *out = *L;
     if (n == 0 || !(energy > 0) || !isfinite(energy)) return n;
     const double c = exp2(level) * exposure / energy;
-    if (!isfinite(c)) return n; /* a level beyond float's range: leave the frame as it is */
+    /* a level beyond float's range (exposures that disagree by ~2^128): leave the frame as it is
+     * rather than hand out infinite colours */
+    double peak = 0;
+    for (int i = 0; i < out->n_lights; i++)
+        for (int k = 0; k < 3; k++)
+            peak = fmax(peak, out->lights[i].rgb[k]);
+    for (int k = 0; k < 3; k++)
+        peak = fmax(peak, out->ambient[k]);
+    if (!(peak * c <= FLT_MAX)) return n;
     for (int i = 0; i < out->n_lights; i++)
         for (int k = 0; k < 3; k++)
             out->lights[i].rgb[k] = (float)(out->lights[i].rgb[k] * c);

@@ -420,6 +420,11 @@ static void test_level(void)
     G = L;
     CHECK(pl_key_fuser_level(k, 4, &G, 0.5, &G) == 4 && !memcmp(&G, &F, sizeof G), "out may be L");
 
+    /* an exposure so far from the views' that the colours would leave float's range: the frame
+     * as it is, never infinite colours */
+    CHECK(pl_key_fuser_level(k, 4, &L, 1e300, &G) == 4 && !memcmp(&G, &L, sizeof G),
+          "a level beyond float's range leaves the frame as it is");
+
     /* refusals leave out and the fuser alone */
     G = F;
     CHECK(pl_key_fuser_level(k, 4, &L, 0, &G) == PL_E_ARG && strstr(pl_last_error(), "exposure") &&
