@@ -353,9 +353,10 @@ PL_API int pl_key_fuser_add_exposed(pl_key_fuser *fuser, const pl_lighting *cam,
 /* L (any frame: camera or world space, aimed or not) brought to the room's level at time t_s:
  * its lights' colours and its ambient times 2^level x exposure / (L's total energy), exposure
  * being L's frame's (as given to pl_key_fuser_add_exposed). Returns how many kept frames the
- * level rests on; with none, or when L has no energy, *out = *L. out may be L. PL_E_ARG for a
- * NULL argument, a time that is not finite, an exposure that is not > 0 and finite, or an
- * invalid L; out is then untouched. */
+ * level rests on; with none, when L has no energy, or when the colours would leave float's range
+ * (an exposure ~2^128 from the views'), *out = *L. out may be L. PL_E_ARG for a NULL argument, a
+ * time that is not finite, an exposure that is not > 0 and finite, or an invalid L; out is then
+ * untouched. */
 PL_API int pl_key_fuser_level(const pl_key_fuser *fuser, double t_s, const pl_lighting *L,
                               double exposure, pl_lighting *out);
 
